@@ -1,0 +1,3 @@
+#include "align3d/cli.hpp"
+
+int main(int argc, char** argv) { return align3d::cli::run(argc, argv); }

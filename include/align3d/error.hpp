@@ -1,0 +1,55 @@
+// Typed errors thrown at align3d's boundaries. Each class maps to one documented exit code of the
+// command-line tool (README, "Exit codes"); library code throws, it never prints or exits.
+#pragma once
+
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+
+namespace align3d {
+
+// Exit codes of the `align3d` tool, one per error class.
+enum class ExitCode : int {
+  kOk = 0,
+  kInternal = 1,     // a bug: an unexpected exception
+  kUsage = 2,        // bad command line (unknown flag, bad value)
+  kInput = 3,        // a file is missing, unreadable, malformed, truncated or of unknown type
+  kData = 4,         // the data cannot be used: too few points, degenerate geometry, no plane
+  kOutput = 5,       // an output file could not be written
+  kNoSolution = 6,   // registration found no usable solution (too few correspondences)
+};
+
+class Error : public std::runtime_error {
+ public:
+  Error(ExitCode code, const std::string& message) : std::runtime_error(message), code_(code) {}
+  ExitCode code() const { return code_; }
+
+ private:
+  ExitCode code_;
+};
+
+// A file cannot be read or parsed. The message names the file and, for parse errors, the line
+// (text formats) or the byte offset (binary formats).
+class IoError : public Error {
+ public:
+  explicit IoError(const std::string& message) : Error(ExitCode::kInput, message) {}
+};
+
+// Writing an output file failed; nothing was left at the destination.
+class OutputError : public Error {
+ public:
+  explicit OutputError(const std::string& message) : Error(ExitCode::kOutput, message) {}
+};
+
+// Input data is well-formed but unusable (too few points, all points on a line, no plane).
+class DataError : public Error {
+ public:
+  explicit DataError(const std::string& message) : Error(ExitCode::kData, message) {}
+};
+
+class UsageError : public Error {
+ public:
+  explicit UsageError(const std::string& message) : Error(ExitCode::kUsage, message) {}
+};
+
+}  // namespace align3d

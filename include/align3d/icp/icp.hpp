@@ -1,0 +1,61 @@
+// The ICP loop (chapter 39.1-39.4): nearest-neighbour correspondences → rejection → closed-form
+// (point-to-point, Kabsch) or Gauss-Newton (point-to-plane, 6×6) update → compose → repeat.
+// This is one ICP run with one fixed rejection rule; registration.hpp builds the robust default
+// schedule on top of it.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <vector>
+
+#include "align3d/icp/rejection.hpp"
+#include "align3d/icp/termination.hpp"
+#include "align3d/kdtree.hpp"
+#include "align3d/point_cloud.hpp"
+#include "align3d/se3.hpp"
+
+namespace align3d {
+
+enum class IcpMethod { kPointToPoint, kPointToPlane };
+inline const char* to_string(IcpMethod m) {
+  return m == IcpMethod::kPointToPoint ? "point-to-point" : "point-to-plane";
+}
+
+struct IcpSettings {
+  IcpMethod method = IcpMethod::kPointToPlane;
+  RejectionRule rejection = RejectionRule::median();
+  TerminationSettings termination;
+  // > 0: pairs are weighted by the Geman-McClure kernel of their residual (distance for
+  // point-to-point, plane distance for point-to-plane) with this scale (data units), re-weighted
+  // every iteration (IRLS); 0: plain least squares as in the chapter.
+  double robust_scale = 0.0;
+  int threads = 0;  // 0: all cores; the result does not depend on it
+};
+
+struct IterationRecord {
+  double rms = 0;        // RMS residual of the kept pairs at the start of the iteration: Euclidean
+                         // distance (point-to-point) or distance to the target plane (point-to-plane)
+  std::size_t kept = 0;  // pairs that passed rejection
+  double threshold = 0;  // rejection threshold used (data units; infinity for "none")
+};
+
+struct IcpResult {
+  Eigen::Isometry3d T_target_source = Eigen::Isometry3d::Identity();
+  int iterations = 0;  // updates applied
+  bool converged = false;  // a convergence criterion fired with enough pairs (never merely the cap)
+  StopReason stop_reason = StopReason::kMaxIterations;
+  // Evaluated once more at the final pose, with the last iteration's threshold:
+  double rms = 0;                  // RMS of the kept pairs' residuals (metric as in IterationRecord)
+  std::size_t correspondences = 0; // kept pairs
+  double fitness = 0;              // kept pairs ÷ source points (Open3D's meaning)
+  std::vector<IterationRecord> history;
+  // The last point-to-plane system (H of Σ w r², in the frame centred on the target centroid,
+  // unknowns ω then v) for judging which directions the data constrains; zero for point-to-point.
+  Matrix6d hessian = Matrix6d::Zero();
+};
+
+// Registers `source` onto `target` starting from `init` (target ≈ T·source). `tree` must index
+// target.positions; point-to-plane needs target normals (std::invalid_argument otherwise).
+IcpResult icp(const PointCloud& source, const PointCloud& target, const KdTree& tree,
+              const Eigen::Isometry3d& init, const IcpSettings& settings);
+
+}  // namespace align3d

@@ -1,0 +1,41 @@
+// When the ICP loop stops (chapter 39.2, "Termination criterion"), and why.
+#pragma once
+
+#include <string>
+
+namespace align3d {
+
+struct TerminationSettings {
+  int max_iterations = 60;
+  // Stop when |RMS_k − RMS_(k−1)| < rms_change, times RMS_(k−1) when rms_change_relative (the
+  // default: unit-free). The chapter's rule is absolute: rms_change = 1e-5 mm, relative = false.
+  double rms_change = 1e-5;
+  bool rms_change_relative = true;
+  // Stop when one update rotates by less than `rotation` radians AND moves by less than
+  // `translation` × (target bounding-box diagonal). 0 disables this criterion.
+  double rotation = 1e-7;
+  double translation = 1e-8;
+};
+
+enum class StopReason {
+  kRmsChange,               // converged: RMS settled
+  kTransformChange,         // converged: the update became negligible
+  kMaxIterations,           // not converged: iteration cap
+  kTooFewCorrespondences,   // not converged: fewer pairs than the metric needs
+};
+
+inline const char* to_string(StopReason r) {
+  switch (r) {
+    case StopReason::kRmsChange: return "rms_change";
+    case StopReason::kTransformChange: return "transform_change";
+    case StopReason::kMaxIterations: return "max_iterations";
+    case StopReason::kTooFewCorrespondences: return "too_few_correspondences";
+  }
+  return "unknown";
+}
+
+inline bool is_convergence(StopReason r) {
+  return r == StopReason::kRmsChange || r == StopReason::kTransformChange;
+}
+
+}  // namespace align3d

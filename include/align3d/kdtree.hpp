@@ -1,0 +1,51 @@
+// Nearest-neighbour search over a fixed set of 3D points (a nanoflann kd-tree; chapter 39.1 step 1:
+// O(log M) per query instead of the brute-force O(M)).
+//
+// Lifetime: the tree references `points`, it does not copy them; the vector must outlive the tree
+// and must not change while the tree exists.
+// Thread-safety: all const queries may run concurrently from any number of threads.
+// Distances: every `sq_` quantity is a squared Euclidean distance in the data's units.
+// Ties: among equidistant points the result is deterministic for a given tree.
+#pragma once
+
+#include <Eigen/Core>
+#include <cstddef>
+#include <limits>
+#include <memory>
+#include <vector>
+
+namespace align3d {
+
+struct Neighbor {
+  std::size_t index = 0;
+  double sq_distance = std::numeric_limits<double>::infinity();
+};
+
+class KdTree {
+ public:
+  explicit KdTree(const std::vector<Eigen::Vector3d>& points);
+  ~KdTree();
+  KdTree(const KdTree&) = delete;
+  KdTree& operator=(const KdTree&) = delete;
+
+  std::size_t size() const { return size_; }
+
+  // The nearest point within sq_max_distance (exclusive bound: the search prunes subtrees farther
+  // than it, which is what makes a bounded ICP query cheap). Returns false when there is none
+  // (also for an empty tree).
+  bool nearest(const Eigen::Vector3d& query, Neighbor& out,
+               double sq_max_distance = std::numeric_limits<double>::infinity()) const;
+
+  // The min(k, size()) nearest points, closest first, written into `out` (resized).
+  void knn(const Eigen::Vector3d& query, std::size_t k, std::vector<Neighbor>& out) const;
+
+  // All points with squared distance <= sq_radius, closest first, written into `out`.
+  void radius(const Eigen::Vector3d& query, double sq_radius, std::vector<Neighbor>& out) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+  std::size_t size_;
+};
+
+}  // namespace align3d

@@ -1,0 +1,43 @@
+// Plane correction (chapter 39.5): fit the reference plane, rotate its normal n onto +Z (Rodrigues
+// about n × z), then shift along z so the plane lies on z = 0. x and y of the plane's centroid are
+// kept, so positions on the part stay meaningful.
+//
+// Which side is up (the normal's sign), in order of precedence:
+//   1. `up` when given: n·up > 0;
+//   2. the side the part is on: when more than 0.5 % of the points lie farther than 6 σ̂ off the
+//      plane (something stands on it), n points toward the larger share of them;
+//   3. otherwise the sensor's side, +Z (a sensor looking down): n·ẑ >= 0.
+// So a plate is never turned upside down. n = +Z gives the identity rotation; n = −Z (only possible
+// with `up`) a half turn about the x axis, since n × z is undefined there.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <optional>
+
+#include "align3d/plane/plane.hpp"
+#include "align3d/point_cloud.hpp"
+
+namespace align3d {
+
+struct RectifySettings {
+  bool robust = false;  // find the dominant plane with RANSAC first (clutter-proof)
+  std::optional<Eigen::Vector3d> up;
+  RansacPlaneSettings ransac;
+};
+
+struct RectifyResult {
+  Eigen::Isometry3d transformation = Eigen::Isometry3d::Identity();  // cloud → rectified frame
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();  // fitted plane normal, oriented up (input frame)
+  double tilt_before_deg = 0;   // angle between `normal` and +Z
+  double tilt_after_deg = 0;    // the same, measured by refitting the rectified inliers
+  std::size_t inliers = 0;      // points the plane was fitted to (all, unless robust)
+  double flatness = 0;          // peak-to-valley of the inliers' residuals to the fitted plane
+};
+
+// The rotation taking unit vector n to +Z by the shortest arc (Rodrigues), with the ±Z cases above.
+Eigen::Matrix3d rotation_to_z(const Eigen::Vector3d& n);
+
+// Throws DataError when the cloud defines no plane (too few points, collinear).
+RectifyResult rectify(const PointCloud& cloud, const RectifySettings& settings = {});
+
+}  // namespace align3d

@@ -1,0 +1,18 @@
+#!/usr/bin/env bash
+# Installs align3d's build and test dependencies from Debian's packages, only those missing.
+# Usage: scripts/setup.sh            (needs root or sudo; does nothing when all are present)
+set -euo pipefail
+pkgs=(build-essential cmake ninja-build pkg-config
+      libeigen3-dev libnanoflann-dev libcli11-dev nlohmann-json3-dev libfast-float-dev
+      liblzf-dev libcairo2-dev fonts-dejavu-core libgtest-dev libgmock-dev libbenchmark-dev)
+missing=()
+for p in "${pkgs[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if ((${#missing[@]})); then
+  sudo_cmd=""
+  [ "$(id -u)" -eq 0 ] || sudo_cmd="sudo"
+  echo "setup: installing ${missing[*]}" >&2
+  $sudo_cmd apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y -qq --no-install-recommends "${missing[@]}"
+fi

@@ -1,0 +1,197 @@
+#include "align3d/icp/icp.hpp"
+
+#include <Eigen/Cholesky>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+#include "align3d/icp/factors.hpp"
+#include "align3d/kabsch.hpp"
+#include "align3d/parallel.hpp"
+
+namespace align3d {
+namespace {
+
+constexpr std::size_t kNone = std::numeric_limits<std::size_t>::max();
+
+// Nearest target point for each transformed source point (kNone when beyond the search bound).
+struct Correspondences {
+  std::vector<std::size_t> target;
+  std::vector<double> distance;  // true distance
+};
+
+void find_correspondences(const PointCloud& source, const KdTree& tree,
+                          const Eigen::Isometry3d& T, double bound, int threads,
+                          Correspondences& out) {
+  const std::size_t n = source.size();
+  out.target.resize(n);
+  out.distance.resize(n);
+  const double sq_bound = std::isfinite(bound) ? bound * bound * (1 + 1e-12)
+                                               : std::numeric_limits<double>::infinity();
+  parallel_for(n, threads, [&](std::size_t i) {
+    Neighbor nb;
+    if (tree.nearest(T * source.positions[i], nb, sq_bound)) {
+      out.target[i] = nb.index;
+      out.distance[i] = std::sqrt(nb.sq_distance);
+    } else {
+      out.target[i] = kNone;
+      out.distance[i] = std::numeric_limits<double>::infinity();
+    }
+  });
+}
+
+double threshold_for(const RejectionRule& rule, const Correspondences& c) {
+  thread_local std::vector<double> found;
+  found.clear();
+  for (double d : c.distance)
+    if (std::isfinite(d)) found.push_back(d);
+  return rejection_threshold(rule, found);
+}
+
+struct Step {
+  Eigen::Isometry3d delta = Eigen::Isometry3d::Identity();  // in the centred frame
+  double rms = 0;
+  std::size_t kept = 0;
+  Matrix6d hessian = Matrix6d::Zero();
+  bool solvable = false;
+};
+
+// Evaluates the kept pairs at pose T and solves for the update (in coordinates about `centre`).
+Step solve_step(const PointCloud& source, const PointCloud& target, const Correspondences& c,
+                const Eigen::Isometry3d& T, const Eigen::Vector3d& centre, double threshold,
+                const IcpSettings& s) {
+  const std::size_t n = source.size();
+  Step step;
+  auto weight = [&](double d) { return geman_mcclure_weight(d, s.robust_scale); };
+  if (s.method == IcpMethod::kPointToPoint) {
+    struct Acc {
+      KabschAccumulator kabsch;
+      double sq_error = 0;
+      std::size_t kept = 0;
+    };
+    const Acc acc = parallel_reduce(
+        n, s.threads, Acc{},
+        [&](Acc& a, std::size_t i) {
+          if (c.target[i] == kNone || c.distance[i] > threshold) return;
+          const Eigen::Vector3d p = T * source.positions[i] - centre;
+          const Eigen::Vector3d q = target.positions[c.target[i]] - centre;
+          a.kabsch.add(p, q, weight(c.distance[i]));
+          a.sq_error += c.distance[i] * c.distance[i];
+          ++a.kept;
+        },
+        [](Acc& a, const Acc& b) {
+          a.kabsch += b.kabsch;
+          a.sq_error += b.sq_error;
+          a.kept += b.kept;
+        });
+    step.kept = acc.kept;
+    step.rms = acc.kept ? std::sqrt(acc.sq_error / static_cast<double>(acc.kept)) : 0.0;
+    step.solvable = acc.kept >= 3;
+    if (step.solvable) step.delta = solve_kabsch(acc.kabsch);
+    return step;
+  }
+  struct Acc {
+    LinearSystem6 system;
+    double sq_error = 0;
+    std::size_t kept = 0;
+  };
+  const Acc acc = parallel_reduce(
+      n, s.threads, Acc{},
+      [&](Acc& a, std::size_t i) {
+        if (c.target[i] == kNone || c.distance[i] > threshold) return;
+        const Eigen::Vector3d p = T * source.positions[i] - centre;
+        const Eigen::Vector3d q = target.positions[c.target[i]] - centre;
+        const Eigen::Vector3d& normal = target.normals[c.target[i]];
+        const double r = PointToPlaneFactor::residual(p, q, normal);
+        a.system.add(PointToPlaneFactor::jacobian(p, normal), r, weight(std::abs(r)));
+        a.sq_error += r * r;
+        ++a.kept;
+      },
+      [](Acc& a, const Acc& b) {
+        a.system += b.system;
+        a.sq_error += b.sq_error;
+        a.kept += b.kept;
+      });
+  step.kept = acc.kept;
+  step.rms = acc.kept ? std::sqrt(acc.sq_error / static_cast<double>(acc.kept)) : 0.0;
+  step.hessian = acc.system.H;
+  step.solvable = acc.kept >= 6;
+  if (step.solvable) {
+    // Solve H·x = −b; LDLT copes with a semi-definite H (directions the data leaves free).
+    const Vector6d x = acc.system.H.ldlt().solve(-acc.system.b);
+    step.solvable = x.allFinite();
+    // The small-angle model is re-orthonormalised through the exponential map (se3.hpp).
+    if (step.solvable) step.delta = se3_exp(x);
+  }
+  return step;
+}
+
+}  // namespace
+
+IcpResult icp(const PointCloud& source, const PointCloud& target, const KdTree& tree,
+              const Eigen::Isometry3d& init, const IcpSettings& s) {
+  if (s.method == IcpMethod::kPointToPlane && !target.has_normals())
+    throw std::invalid_argument("icp: point-to-plane needs target normals");
+  if (tree.size() != target.size())
+    throw std::invalid_argument("icp: the kd-tree does not index the target");
+
+  const Eigen::Vector3d centre = centroid(target);
+  const Eigen::Translation3d to_world(centre);
+  const double diagonal = bounding_box_diagonal(target);
+  const TerminationSettings& term = s.termination;
+  const std::size_t min_pairs = s.method == IcpMethod::kPointToPoint ? 3 : 6;
+
+  IcpResult result;
+  result.T_target_source = init;
+  Correspondences c;
+  double threshold = 0;
+  double previous_rms = std::numeric_limits<double>::quiet_NaN();
+  bool stopped = false;
+  for (int it = 0; it < term.max_iterations; ++it) {
+    find_correspondences(source, tree, result.T_target_source, s.rejection.search_bound(),
+                         s.threads, c);
+    threshold = threshold_for(s.rejection, c);
+    const Step step = solve_step(source, target, c, result.T_target_source, centre, threshold, s);
+    result.history.push_back({step.rms, step.kept, threshold});
+    if (!step.solvable || step.kept < min_pairs) {
+      result.stop_reason = StopReason::kTooFewCorrespondences;
+      stopped = true;
+      break;
+    }
+    result.hessian = step.hessian;
+    result.T_target_source = to_world * step.delta * to_world.inverse() * result.T_target_source;
+    result.T_target_source.linear() = nearest_rotation(result.T_target_source.linear());
+    ++result.iterations;
+
+    const double rms_tolerance =
+        term.rms_change * (term.rms_change_relative ? previous_rms : 1.0);
+    if (std::abs(step.rms - previous_rms) < rms_tolerance) {
+      result.stop_reason = StopReason::kRmsChange;
+      stopped = true;
+      break;
+    }
+    if (term.rotation > 0 && rotation_angle(step.delta.linear()) < term.rotation &&
+        step.delta.translation().norm() < term.translation * diagonal) {
+      result.stop_reason = StopReason::kTransformChange;
+      stopped = true;
+      break;
+    }
+    previous_rms = step.rms;
+  }
+  if (!stopped) result.stop_reason = StopReason::kMaxIterations;
+
+  // Final evaluation at the returned pose.
+  find_correspondences(source, tree, result.T_target_source, s.rejection.search_bound(), s.threads,
+                       c);
+  if (result.stop_reason != StopReason::kTooFewCorrespondences) threshold = threshold_for(s.rejection, c);
+  const Step final_step = solve_step(source, target, c, result.T_target_source, centre, threshold, s);
+  result.rms = final_step.rms;
+  result.correspondences = final_step.kept;
+  result.fitness = source.empty() ? 0.0
+                                  : static_cast<double>(final_step.kept) /
+                                        static_cast<double>(source.size());
+  result.converged = is_convergence(result.stop_reason) && final_step.kept >= min_pairs;
+  return result;
+}
+
+}  // namespace align3d

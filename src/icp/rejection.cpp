@@ -1,0 +1,80 @@
+#include "align3d/icp/rejection.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
+namespace align3d {
+
+double rejection_threshold(const RejectionRule& rule, std::vector<double>& distances) {
+  switch (rule.kind) {
+    case RejectionRule::Kind::kDistance:
+      return rule.distance;
+    case RejectionRule::Kind::kNone:
+      return std::numeric_limits<double>::infinity();
+    case RejectionRule::Kind::kMedian: {
+      if (distances.empty()) return rule.floor;
+      // The chapter's sorted[size / 2]: the upper median.
+      auto mid = distances.begin() + static_cast<std::ptrdiff_t>(distances.size() / 2);
+      std::nth_element(distances.begin(), mid, distances.end());
+      return std::max(rule.factor * *mid, rule.floor);
+    }
+  }
+  return 0.0;
+}
+
+namespace {
+
+double parse_positive(const std::string& text, const std::string& what, bool allow_zero) {
+  std::size_t used = 0;
+  double v = 0;
+  try {
+    v = std::stod(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used != text.size() || !std::isfinite(v) || v < 0 || (!allow_zero && v == 0))
+    throw std::invalid_argument(what + " must be a " + (allow_zero ? "non-negative" : "positive") +
+                                " number, got '" + text + "'");
+  return v;
+}
+
+}  // namespace
+
+RejectionRule parse_rejection_rule(const std::string& text) {
+  std::vector<std::string> parts;
+  std::stringstream ss(text);
+  for (std::string part; std::getline(ss, part, ':');) parts.push_back(part);
+  if (parts.empty()) throw std::invalid_argument("empty rejection rule");
+  const std::string& kind = parts[0];
+  if (kind == "none" && parts.size() == 1) return RejectionRule::none();
+  if (kind == "distance" && parts.size() == 2)
+    return RejectionRule::max_distance(parse_positive(parts[1], "distance D", false));
+  if (kind == "median" && parts.size() <= 3) {
+    const double factor = parts.size() > 1 ? parse_positive(parts[1], "median FACTOR", false) : 2.5;
+    const double floor = parts.size() > 2 ? parse_positive(parts[2], "median FLOOR", true) : 0.0;
+    return RejectionRule::median(factor, floor);
+  }
+  throw std::invalid_argument("unknown rejection rule '" + text +
+                              "' (expected auto, median[:FACTOR[:FLOOR]], distance:D or none)");
+}
+
+std::string to_string(const RejectionRule& rule) {
+  std::ostringstream out;
+  switch (rule.kind) {
+    case RejectionRule::Kind::kMedian:
+      out << "median:" << rule.factor;
+      if (rule.floor > 0) out << ":" << rule.floor;
+      break;
+    case RejectionRule::Kind::kDistance:
+      out << "distance:" << rule.distance;
+      break;
+    case RejectionRule::Kind::kNone:
+      out << "none";
+      break;
+  }
+  return out.str();
+}
+
+}  // namespace align3d

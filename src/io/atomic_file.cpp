@@ -1,0 +1,54 @@
+#include "align3d/io/atomic_file.hpp"
+
+#include <fstream>
+#include <random>
+#include <system_error>
+
+#include "align3d/error.hpp"
+
+namespace align3d::io {
+namespace {
+
+std::filesystem::path temporary_name(const std::filesystem::path& path) {
+  static thread_local std::mt19937_64 rng{std::random_device{}()};
+  auto tmp = path;
+  tmp += ".tmp-" + std::to_string(rng() % 1000000000ULL);
+  return tmp;
+}
+
+}  // namespace
+
+void write_via_temporary(const std::filesystem::path& path,
+                         const std::function<void(const std::filesystem::path& tmp)>& write) {
+  const auto tmp = temporary_name(path);
+  std::error_code ec;
+  try {
+    write(tmp);
+  } catch (...) {
+    std::filesystem::remove(tmp, ec);
+    throw;
+  }
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) {
+    std::error_code ignored;
+    std::filesystem::remove(tmp, ignored);
+    throw OutputError(path.string() + ": cannot write: " + ec.message());
+  }
+}
+
+void write_atomically(const std::filesystem::path& path,
+                      const std::function<void(std::ostream&)>& write) {
+  write_via_temporary(path, [&](const std::filesystem::path& tmp) {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    if (!out) throw OutputError(path.string() + ": cannot write: cannot create file");
+    write(out);
+    out.flush();
+    if (!out) throw OutputError(path.string() + ": cannot write: write failed (disk full?)");
+  });
+}
+
+void write_text_atomically(const std::filesystem::path& path, std::string_view text) {
+  write_atomically(path, [&](std::ostream& out) { out.write(text.data(), std::ssize(text)); });
+}
+
+}  // namespace align3d::io

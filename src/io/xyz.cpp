@@ -1,0 +1,86 @@
+// Plain-text point lists (.xyz, .txt, .csv): one point per row, x y z being its first three
+// numbers.
+#include <algorithm>
+#include <string>
+
+#include "align3d/io/atomic_file.hpp"
+#include "align3d/io/point_cloud_io.hpp"
+#include "io_detail.hpp"
+
+namespace align3d::io {
+namespace {
+
+// No point row is anywhere near this long; a longer line means a binary file or a missing newline,
+// and refusing it keeps errors readable.
+constexpr std::size_t kMaxLineBytes = std::size_t{64} << 10;
+
+// Runs of separators count as one, so "1, 2, 3" and "1\t2\t3" read alike (an empty CSV field
+// therefore does not shift the columns; such files are rare for point lists).
+bool is_separator(char c) { return detail::is_space(c) || c == ',' || c == ';'; }
+
+}  // namespace
+
+namespace detail {
+
+PointCloud read_xyz(const std::filesystem::path& path, std::string_view data,
+                    std::size_t& dropped) {
+  CloudBuilder builder(false);
+  // One reservation instead of regrowth. A point row takes at least 6 bytes ("0 0 0\n"), which
+  // bounds the reservation for files of blank or comment lines.
+  const auto rows = static_cast<std::size_t>(std::count(data.begin(), data.end(), '\n')) + 1;
+  builder.reserve(std::min(rows, data.size() / 6 + 1));
+
+  LineCursor lines(data.data(), data.data() + data.size());
+  std::string_view line;
+  bool seen_row = false;
+  while (lines.next(line)) {
+    if (line.size() > kMaxLineBytes) {
+      fail(path, "line " + std::to_string(lines.number()) + " is longer than " +
+                     std::to_string(kMaxLineBytes) + " bytes (not a text point file?)");
+    }
+    const auto first = line.find_first_not_of(" \t\r\v\f");
+    if (first == std::string_view::npos || line[first] == '#') continue;
+    std::array<double, 3> xyz{};
+    std::size_t pos = 0;
+    std::size_t found = 0;
+    bool header = false;
+    for (; found < 3; ++found) {
+      const auto token = next_token(line, pos, is_separator);
+      if (token.empty()) break;
+      if (parse_double(token, xyz[found])) continue;
+      // Column names ("x,y,z") are common in CSV exports; elsewhere a word is an error.
+      if (!seen_row && found == 0) {
+        header = true;
+        break;
+      }
+      fail(path, "line " + std::to_string(lines.number()) + ": bad number " + quoted(token));
+    }
+    seen_row = true;
+    if (header) continue;
+    if (found < 3) {
+      fail(path, "line " + std::to_string(lines.number()) +
+                     ": expected at least 3 numbers, found " + std::to_string(found));
+    }
+    builder.add(xyz[0], xyz[1], xyz[2]);
+  }
+  return builder.finish(dropped);
+}
+
+}  // namespace detail
+
+void write_xyz(const std::filesystem::path& path, const PointCloud& cloud) {
+  write_atomically(path, [&](std::ostream& out) {
+    detail::ChunkedOutput output(out);
+    std::string& buffer = output.buffer();
+    for (const auto& p : cloud.positions) {
+      for (int k = 0; k < 3; ++k) {
+        detail::append_general(buffer, p[k], 9);
+        buffer += k < 2 ? ' ' : '\n';
+      }
+      output.maybe_flush();
+    }
+    output.flush();
+  });
+}
+
+}  // namespace align3d::io

@@ -1,0 +1,54 @@
+#include "align3d/normals.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <stdexcept>
+
+#include "align3d/parallel.hpp"
+
+namespace align3d {
+
+NormalResult estimate_normals(PointCloud& cloud, const KdTree& tree,
+                              const NormalSettings& settings) {
+  if (settings.k < 3) throw std::invalid_argument("estimate_normals: k must be >= 3");
+  const std::size_t n = cloud.size();
+  cloud.normals.assign(n, Eigen::Vector3d::UnitZ());
+  std::vector<unsigned char> undefined(n, 0);
+  const auto k = static_cast<std::size_t>(settings.k);
+  parallel_for(n, settings.threads, [&](std::size_t i) {
+    thread_local std::vector<Neighbor> nb;
+    const Eigen::Vector3d& p = cloud.positions[i];
+    tree.knn(p, k, nb);
+    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+    for (const auto& m : nb) mean += cloud.positions[m.index];
+    mean /= static_cast<double>(nb.size());
+    Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+    for (const auto& m : nb) {
+      const Eigen::Vector3d d = cloud.positions[m.index] - mean;
+      cov.noalias() += d * d.transpose();
+    }
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);  // eigenvalues ascending
+    const Eigen::Vector3d ev = eig.eigenvalues();
+    Eigen::Vector3d toward =
+        settings.viewpoint ? Eigen::Vector3d(*settings.viewpoint - p) : Eigen::Vector3d::UnitZ();
+    // No plane when the middle eigenvalue vanishes relative to the largest (a line or a point).
+    if (nb.size() < 3 || !(ev(1) > 1e-12 * ev(2)) || eig.info() != Eigen::Success) {
+      undefined[i] = 1;
+      cloud.normals[i] = toward.norm() > 0 ? Eigen::Vector3d(toward.normalized())
+                                           : Eigen::Vector3d::UnitZ();
+      return;
+    }
+    Eigen::Vector3d normal = eig.eigenvectors().col(0);
+    if (normal.dot(toward) < 0) normal = -normal;
+    cloud.normals[i] = normal;
+  });
+  NormalResult result;
+  for (unsigned char u : undefined) result.undefined += u;
+  return result;
+}
+
+NormalResult estimate_normals(PointCloud& cloud, const NormalSettings& settings) {
+  const KdTree tree(cloud.positions);
+  return estimate_normals(cloud, tree, settings);
+}
+
+}  // namespace align3d

@@ -1,0 +1,99 @@
+#include "align3d/plane/rectify.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+#include "align3d/error.hpp"
+#include "align3d/se3.hpp"
+
+namespace align3d {
+
+Eigen::Matrix3d rotation_to_z(const Eigen::Vector3d& n_in) {
+  const Eigen::Vector3d n = n_in.normalized();
+  const Eigen::Vector3d z = Eigen::Vector3d::UnitZ();
+  const Eigen::Vector3d axis = n.cross(z);
+  const double s = axis.norm(), c = n.dot(z);
+  if (s < 1e-12) {
+    if (c > 0) return Eigen::Matrix3d::Identity();
+    return Eigen::AngleAxisd(3.14159265358979323846, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  }
+  return Eigen::AngleAxisd(std::atan2(s, c), axis / s).toRotationMatrix();
+}
+
+namespace {
+
+double angle_to_z_deg(const Eigen::Vector3d& n) {
+  return rad_to_deg(std::atan2(n.cross(Eigen::Vector3d::UnitZ()).norm(), n.z()));
+}
+
+// The up side from the points off the plane (policy 2 of rectify.hpp); 0 when undecided.
+double part_side(const std::vector<Eigen::Vector3d>& points, const Plane& plane,
+                 const std::vector<std::size_t>& inliers) {
+  std::vector<double> r;
+  r.reserve(inliers.size());
+  for (std::size_t i : inliers) r.push_back(std::abs(plane.signed_distance(points[i])));
+  auto mid = r.begin() + static_cast<std::ptrdiff_t>(r.size() / 2);
+  std::nth_element(r.begin(), mid, r.end());
+  const double cut = 6 * 1.4826 * *mid;
+  std::size_t above = 0, below = 0;
+  for (const auto& p : points) {
+    const double d = plane.signed_distance(p);
+    above += d > cut;
+    below += d < -cut;
+  }
+  if (static_cast<double>(above + below) <= 0.005 * static_cast<double>(points.size()) || above == below)
+    return 0.0;
+  return above > below ? 1.0 : -1.0;
+}
+
+}  // namespace
+
+RectifyResult rectify(const PointCloud& cloud, const RectifySettings& settings) {
+  const auto& points = cloud.positions;
+  std::vector<std::size_t> inliers;
+  Plane plane;
+  if (settings.robust) {
+    RansacPlaneResult r = ransac_plane(points, settings.ransac);
+    plane = r.plane;
+    inliers = std::move(r.inliers);
+  } else {
+    plane = fit_plane(points);
+    inliers.resize(points.size());
+    std::iota(inliers.begin(), inliers.end(), std::size_t{0});
+  }
+  double sign = 0;
+  if (settings.up) {
+    if (!(settings.up->norm() > 0)) throw DataError("--up must be a non-zero vector");
+    sign = plane.normal.dot(*settings.up) >= 0 ? 1.0 : -1.0;
+  }
+  if (sign == 0) sign = part_side(points, plane, inliers);
+  if (sign == 0) sign = plane.normal.z() >= 0 ? 1.0 : -1.0;
+  plane.normal *= sign;
+
+  RectifyResult out;
+  out.normal = plane.normal;
+  out.inliers = inliers.size();
+  out.tilt_before_deg = angle_to_z_deg(plane.normal);
+  const Eigen::Matrix3d R = rotation_to_z(plane.normal);
+  out.transformation.linear() = R;
+  out.transformation.translation() = Eigen::Vector3d(0, 0, -(R * plane.point).z());
+
+  // Measure, don't assume: refit the moved inliers.
+  std::vector<Eigen::Vector3d> moved;
+  moved.reserve(inliers.size());
+  for (std::size_t i : inliers) moved.push_back(out.transformation * points[i]);
+  Plane after = fit_plane(moved);
+  if (after.normal.z() < 0) after.normal = -after.normal;
+  out.tilt_after_deg = angle_to_z_deg(after.normal);
+  double lo = 0, hi = 0;
+  for (std::size_t i : inliers) {
+    const double d = plane.signed_distance(points[i]);
+    lo = std::min(lo, d);
+    hi = std::max(hi, d);
+  }
+  out.flatness = hi - lo;
+  return out;
+}
+
+}  // namespace align3d

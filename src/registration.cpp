@@ -1,0 +1,134 @@
+#include "align3d/registration.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "align3d/error.hpp"
+
+namespace align3d {
+namespace {
+
+// The `auto` schedule's constants (registration.hpp explains the schedule). All distances are in
+// units of L (bounding-box diagonal) or s (point spacing), so the schedule is unit-free.
+constexpr double kStartFraction = 1.0 / 8.0;  // τ0 = L/8
+constexpr double kShrink = 0.5;               // τ ← τ/2 per stage
+constexpr double kKernelFraction = 0.5;       // Geman-McClure scale = τ/2
+constexpr double kFinalSpacings = 3.0;        // final τ >= 3 s
+constexpr double kFinalSigmas = 4.0;          // final τ >= 4 σ̂
+constexpr int kCoarseIterations = 30;
+
+void append(RegistrationResult& out, const IcpResult& r, const IcpSettings& s) {
+  StageRecord stage;
+  stage.metric = to_string(s.method);
+  stage.max_distance = s.rejection.kind == RejectionRule::Kind::kDistance
+                           ? s.rejection.distance
+                           : std::numeric_limits<double>::infinity();
+  stage.first_iteration = static_cast<int>(out.history.size());
+  stage.iterations = r.iterations;
+  out.stages.push_back(stage);
+  out.history.insert(out.history.end(), r.history.begin(), r.history.end());
+  out.total_iterations += r.iterations;
+}
+
+}  // namespace
+
+double point_spacing(const PointCloud& cloud, const KdTree& tree, std::size_t samples) {
+  const std::size_t n = cloud.size();
+  if (n < 2) return 0.0;
+  const std::size_t step = std::max<std::size_t>(1, n / std::max<std::size_t>(1, samples));
+  std::vector<double> d;
+  std::vector<Neighbor> nb;
+  for (std::size_t i = 0; i < n; i += step) {
+    tree.knn(cloud.positions[i], 2, nb);
+    for (const auto& m : nb)
+      if (m.index != i && m.sq_distance > 0) {
+        d.push_back(std::sqrt(m.sq_distance));
+        break;
+      }
+  }
+  if (d.empty()) return 0.0;
+  std::nth_element(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(d.size() / 2), d.end());
+  return d[d.size() / 2];
+}
+
+void check_registrable(const PointCloud& cloud, const std::string& what) {
+  if (cloud.size() < 6)
+    throw DataError(what + ": " + std::to_string(cloud.size()) +
+                    " points; registration needs at least 6");
+  const Eigen::Vector3d c = centroid(cloud);
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (const auto& p : cloud.positions) cov.noalias() += (p - c) * (p - c).transpose();
+  const Eigen::Vector3d ev = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(cov).eigenvalues();
+  if (!(ev(2) > 0)) throw DataError(what + ": all points are at one spot");
+  if (ev(1) <= 1e-12 * ev(2)) throw DataError(what + ": all points lie on one line");
+}
+
+RegistrationResult register_clouds(const PointCloud& source, const PointCloud& target_in,
+                                   const Eigen::Isometry3d& init,
+                                   const RegistrationSettings& settings) {
+  check_registrable(source, "source");
+  check_registrable(target_in, "target");
+  RegistrationResult out;
+
+  PointCloud target = target_in;  // normals may be added
+  const KdTree tree(target.positions);
+  const bool need_normals =
+      settings.method == IcpMethod::kPointToPlane || !settings.rejection.has_value();
+  if (need_normals && !target.has_normals()) {
+    if (target.size() < static_cast<std::size_t>(settings.normals.k))
+      throw DataError("target: " + std::to_string(target.size()) + " points; point-to-plane needs " +
+                      "at least the normal neighbourhood k = " + std::to_string(settings.normals.k));
+    NormalSettings ns = settings.normals;
+    ns.threads = settings.threads;
+    out.undefined_normals = estimate_normals(target, tree, ns).undefined;
+  }
+
+  IcpSettings final;
+  final.method = settings.method;
+  final.threads = settings.threads;
+  final.termination.max_iterations = settings.max_iterations;
+  final.termination.rms_change = settings.tolerance;
+  final.termination.rms_change_relative = settings.tolerance_relative;
+  if (!settings.transform_criterion) final.termination.rotation = 0;
+
+  if (settings.rejection) {
+    final.rejection = *settings.rejection;
+    out.icp = icp(source, target, tree, init, final);
+    append(out, out.icp, final);
+    return out;
+  }
+
+  const double diagonal = bounding_box_diagonal(target);
+  const double spacing = point_spacing(target, tree);
+  out.point_spacing = spacing;
+  const double floor = kFinalSpacings * spacing;
+
+  Eigen::Isometry3d T = init;
+  IcpSettings coarse = final;
+  coarse.method = IcpMethod::kPointToPlane;
+  coarse.termination.max_iterations = kCoarseIterations;
+  coarse.termination.rms_change = 1e-4;
+  coarse.termination.rms_change_relative = true;
+  coarse.termination.rotation = 1e-5;
+  coarse.termination.translation = 1e-6;
+  double sigma = 0;
+  for (double tau = kStartFraction * diagonal; tau > floor; tau *= kShrink) {
+    coarse.rejection = RejectionRule::max_distance(tau);
+    coarse.robust_scale = kKernelFraction * tau;
+    const IcpResult r = icp(source, target, tree, T, coarse);
+    append(out, r, coarse);
+    if (r.stop_reason == StopReason::kTooFewCorrespondences) break;
+    T = r.T_target_source;
+    sigma = r.rms;  // point-to-plane RMS: the noise along the normal once settled
+  }
+  const double tau = std::max(floor, kFinalSigmas * sigma);
+  final.rejection = RejectionRule::max_distance(tau);
+  final.robust_scale = kKernelFraction * tau;
+  out.icp = icp(source, target, tree, T, final);
+  append(out, out.icp, final);
+  return out;
+}
+
+}  // namespace align3d
