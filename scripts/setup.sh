@@ -2,7 +2,7 @@
 # Installs align3d's build and test dependencies from Debian's packages, only those missing.
 # Usage: scripts/setup.sh            (needs root or sudo; does nothing when all are present)
 set -euo pipefail
-pkgs=(build-essential cmake ninja-build pkg-config
+pkgs=(build-essential cmake ninja-build pkg-config ca-certificates
       libeigen3-dev libnanoflann-dev libcli11-dev nlohmann-json3-dev libfast-float-dev
       liblzf-dev libcairo2-dev fonts-dejavu-core libgtest-dev libgmock-dev libbenchmark-dev)
 missing=()

@@ -34,16 +34,20 @@ Eigen::Isometry3d kabsch(const std::vector<Eigen::Vector3d>& p, const std::vecto
                          const std::vector<double>& weights) {
   if (p.size() != q.size() || p.empty() || (!weights.empty() && weights.size() != p.size()))
     throw std::invalid_argument("kabsch: p, q (and weights) must be non-empty and of equal size");
-  // Two passes: centre on the plain mean first so the sums stay well conditioned far from the origin.
-  Eigen::Vector3d shift = Eigen::Vector3d::Zero();
-  for (const auto& x : q) shift += x;
-  shift /= static_cast<double>(q.size());
+  // Two passes: centre each set on its plain mean first so the sums stay well conditioned far
+  // from the origin; then T = translate(q0)·T_centred·translate(−p0).
+  Eigen::Vector3d p0 = Eigen::Vector3d::Zero(), q0 = Eigen::Vector3d::Zero();
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    p0 += p[i];
+    q0 += q[i];
+  }
+  p0 /= static_cast<double>(p.size());
+  q0 /= static_cast<double>(q.size());
   KabschAccumulator acc;
   for (std::size_t i = 0; i < p.size(); ++i)
-    acc.add(p[i] - shift, q[i] - shift, weights.empty() ? 1.0 : weights[i]);
-  const Eigen::Isometry3d centred = solve_kabsch(acc);  // maps p − s to q − s
-  Eigen::Isometry3d T = centred;
-  T.translation() = centred.translation() + shift - centred.linear() * shift;
+    acc.add(p[i] - p0, q[i] - q0, weights.empty() ? 1.0 : weights[i]);
+  Eigen::Isometry3d T = solve_kabsch(acc);
+  T.translation() += q0 - T.linear() * p0;
   return T;
 }
 

@@ -1,5 +1,6 @@
 #include "align3d/kdtree.hpp"
 
+#include <cmath>
 #include <cstdint>
 #include <nanoflann.hpp>
 #include <stdexcept>
@@ -89,7 +90,9 @@ void KdTree::radius(const Eigen::Vector3d& query, double sq_radius,
   if (size_ == 0) return;
   thread_local std::vector<std::pair<std::uint32_t, double>> found;
   found.clear();
-  impl_->tree.radiusSearch(query.data(), sq_radius, found, nanoflann::SearchParams(32, 0, true));
+  // nanoflann keeps d < r; the contract is d <= r, so widen r by one ulp.
+  const double inclusive = std::nextafter(sq_radius, std::numeric_limits<double>::infinity());
+  impl_->tree.radiusSearch(query.data(), inclusive, found, nanoflann::SearchParams(32, 0, true));
   out.reserve(found.size());
   for (const auto& [index, sq_d] : found) out.push_back({index, sq_d});
 }

@@ -16,7 +16,7 @@ constexpr std::uint64_t kMaxMatrixFileBytes = std::uint64_t{1} << 20;
 constexpr double kLastRowTolerance = 1e-9;
 constexpr double kOrthonormalTolerance = 1e-6;
 
-bool is_separator(char c) { return detail::is_space(c) || c == ','; }
+constexpr auto is_separator = [](char c) { return detail::is_space(c) || c == ','; };
 
 std::string line_name(std::size_t line) { return "line " + std::to_string(line); }
 

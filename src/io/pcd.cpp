@@ -244,15 +244,15 @@ void read_ascii(const std::filesystem::path& path, std::string_view file, const 
     const auto where = [&] { return "line " + std::to_string(lines.number()) + ": "; };
     std::size_t pos = 0;
     for (std::size_t v = 0; v < values.size(); ++v) {
-      const auto token = detail::next_token(line, pos, detail::is_space);
-      if (token.empty()) {
+      const auto token = detail::next_number(line, pos, detail::kSpace, values[v]);
+      if (token == detail::Token::kEnd) {
         fail(path, where() + "too few values (expected " + std::to_string(values.size()) + ")");
       }
-      if (!detail::parse_double(token, values[v])) {
-        fail(path, where() + "bad number " + quoted(token));
+      if (token == detail::Token::kNotANumber) {
+        fail(path, where() + "bad number " + quoted(detail::next_token(line, pos, detail::kSpace)));
       }
     }
-    if (!detail::next_token(line, pos, detail::is_space).empty()) {
+    if (!detail::next_token(line, pos, detail::kSpace).empty()) {
       fail(path, where() + "too many values (expected " + std::to_string(values.size()) + ")");
     }
     const auto val = [&](std::size_t k) {

@@ -45,8 +45,8 @@ FileBytes read_file(const std::filesystem::path& path, std::uint64_t max_bytes) 
   if (!in) fail(path, std::string("cannot open: ") + std::strerror(errno));
   std::unique_ptr<char[]> data;
   try {
-    // for_overwrite: zero-filling a multi-gigabyte buffer that the read overwrites costs ~10% of
-    // the load time.
+    // for_overwrite: zero-filling a buffer that the read overwrites at once would touch every page
+    // twice.
     data = std::make_unique_for_overwrite<char[]>(static_cast<std::size_t>(size));
   } catch (const std::bad_alloc&) {
     fail(path, "not enough memory to load " + std::to_string(size) + " bytes");
@@ -64,7 +64,7 @@ std::vector<std::string_view> split_words(std::string_view line) {
   std::vector<std::string_view> words;
   std::size_t pos = 0;
   for (;;) {
-    const auto word = next_token(line, pos, is_space);
+    const auto word = next_token(line, pos, kSpace);
     if (word.empty()) return words;
     words.push_back(word);
   }
@@ -115,7 +115,7 @@ PointCloud read_point_cloud(const std::filesystem::path& path, ReadInfo* info) {
       cloud = detail::read_pcd(path, file.view(), dropped);
       break;
     case Format::kXyz:
-    case Format::kUnknown:
+    case Format::kUnknown:  // rejected above
       cloud = detail::read_xyz(path, file.view(), dropped);
       break;
   }

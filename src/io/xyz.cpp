@@ -16,7 +16,7 @@ constexpr std::size_t kMaxLineBytes = std::size_t{64} << 10;
 
 // Runs of separators count as one, so "1, 2, 3" and "1\t2\t3" read alike (an empty CSV field
 // therefore does not shift the columns; such files are rare for point lists).
-bool is_separator(char c) { return detail::is_space(c) || c == ',' || c == ';'; }
+constexpr auto is_separator = [](char c) { return detail::is_space(c) || c == ',' || c == ';'; };
 
 }  // namespace
 
@@ -45,15 +45,16 @@ PointCloud read_xyz(const std::filesystem::path& path, std::string_view data,
     std::size_t found = 0;
     bool header = false;
     for (; found < 3; ++found) {
-      const auto token = next_token(line, pos, is_separator);
-      if (token.empty()) break;
-      if (parse_double(token, xyz[found])) continue;
+      const auto token = next_number(line, pos, is_separator, xyz[found]);
+      if (token == Token::kEnd) break;
+      if (token == Token::kNumber) continue;
       // Column names ("x,y,z") are common in CSV exports; elsewhere a word is an error.
       if (!seen_row && found == 0) {
         header = true;
         break;
       }
-      fail(path, "line " + std::to_string(lines.number()) + ": bad number " + quoted(token));
+      fail(path, "line " + std::to_string(lines.number()) + ": bad number " +
+                     quoted(next_token(line, pos, is_separator)));
     }
     seen_row = true;
     if (header) continue;

@@ -1,5 +1,6 @@
 #include "align3d/plane/rectify.hpp"
 
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
 #include <numeric>
@@ -27,7 +28,8 @@ double angle_to_z_deg(const Eigen::Vector3d& n) {
   return rad_to_deg(std::atan2(n.cross(Eigen::Vector3d::UnitZ()).norm(), n.z()));
 }
 
-// The up side from the points off the plane (policy 2 of rectify.hpp); 0 when undecided.
+// The up side from the points off the plane (policy 2 of rectify.hpp); 0 when undecided. Only
+// points over the plate's footprint count: a floor showing past the plate's edge is not a part.
 double part_side(const std::vector<Eigen::Vector3d>& points, const Plane& plane,
                  const std::vector<std::size_t>& inliers) {
   std::vector<double> r;
@@ -36,11 +38,35 @@ double part_side(const std::vector<Eigen::Vector3d>& points, const Plane& plane,
   auto mid = r.begin() + static_cast<std::ptrdiff_t>(r.size() / 2);
   std::nth_element(r.begin(), mid, r.end());
   const double cut = 6 * 1.4826 * *mid;
+  // The extent of the points on the plane (within the cut) along their principal in-plane axes
+  // u, v: a tight box for a plate.
+  std::vector<std::size_t> on_plane;
+  for (std::size_t i = 0; i < points.size(); ++i)
+    if (std::abs(plane.signed_distance(points[i])) <= cut) on_plane.push_back(i);
+  Eigen::Vector3d u = plane.normal.unitOrthogonal(), v = plane.normal.cross(u);
+  Eigen::Matrix2d cov = Eigen::Matrix2d::Zero();
+  for (std::size_t i : on_plane) {
+    const Eigen::Vector3d d = points[i] - plane.point;
+    const Eigen::Vector2d w(d.dot(u), d.dot(v));
+    cov.noalias() += w * w.transpose();
+  }
+  const Eigen::Matrix2d axes = Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(cov).eigenvectors();
+  const Eigen::Vector3d u0 = u;
+  u = axes(0, 0) * u0 + axes(1, 0) * v;
+  v = plane.normal.cross(u);
+  Eigen::AlignedBox2d footprint;
+  for (std::size_t i : on_plane) {
+    const Eigen::Vector3d d = points[i] - plane.point;
+    footprint.extend(Eigen::Vector2d(d.dot(u), d.dot(v)));
+  }
   std::size_t above = 0, below = 0;
   for (const auto& p : points) {
     const double d = plane.signed_distance(p);
-    above += d > cut;
-    below += d < -cut;
+    if (std::abs(d) <= cut) continue;
+    const Eigen::Vector3d w = p - plane.point;
+    if (!footprint.contains(Eigen::Vector2d(w.dot(u), w.dot(v)))) continue;
+    above += d > 0;
+    below += d < 0;
   }
   if (static_cast<double>(above + below) <= 0.005 * static_cast<double>(points.size()) || above == below)
     return 0.0;

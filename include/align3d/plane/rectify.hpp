@@ -5,7 +5,8 @@
 // Which side is up (the normal's sign), in order of precedence:
 //   1. `up` when given: n·up > 0;
 //   2. the side the part is on: when more than 0.5 % of the points lie farther than 6 σ̂ off the
-//      plane (something stands on it), n points toward the larger share of them;
+//      plane and over the plate's footprint (something stands on it; a floor seen past the plate's
+//      edge does not count), n points toward the larger share of them;
 //   3. otherwise the sensor's side, +Z (a sensor looking down): n·ẑ >= 0.
 // So a plate is never turned upside down. n = +Z gives the identity rotation; n = −Z (only possible
 // with `up`) a half turn about the x axis, since n × z is undefined there.

@@ -2,6 +2,7 @@
 // sets our numbers beside the chapter's, results.json, figures 39.1-39.5 and report.html.
 #pragma once
 
+#include <cmath>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -15,12 +16,15 @@ struct ChapterScene {
   PointCloud model, scan;           // target and source
   Eigen::Isometry3d T_model_scan;   // ground truth
   PointCloud plate, plate_cluttered;
+  // The cluttered plate's true up normal, to score the plane fits (NaN when unknown: a scene read
+  // from a directory without scene.json).
+  Eigen::Vector3d cluttered_true_normal = Eigen::Vector3d::Constant(std::nan(""));
   double noise_sigma = 0.1;         // of the scan, for the noise floor in figure 39.3
 };
 
 // Generated (synth::make_conveyor_scene + plates, as `align3d synth` writes them) or read from a
 // directory written by `align3d synth` (model.ply, scan.ply, ground_truth.txt, plate.ply,
-// plate_cluttered.ply).
+// plate_cluttered.ply, and scene.json for the noise level and the cluttered plate's normal).
 ChapterScene generate_chapter_scene(std::uint64_t seed = 39);
 ChapterScene read_chapter_scene(const std::filesystem::path& dir);
 
@@ -40,7 +44,8 @@ struct ChapterResults {
   IcpExperiment robust;       // beyond the chapter: `align3d register` defaults from the identity
   RectifyResult plate;        // 39.5: plane correction of the tilted plate
   RectifyResult cluttered_plain, cluttered_robust;  // the cluttered plate, LSQ vs RANSAC + LSQ
-  double cluttered_true_tilt_deg = 7;  // the cluttered plate's true tilt, to judge the two fits
+  // Angle between each fit's normal and the true one (NaN when the truth is unknown).
+  double cluttered_plain_error_deg = 0, cluttered_robust_error_deg = 0;
 };
 
 // The chapter's ICP settings: median × 2.5 with a 0.5 mm floor, |ΔRMS| < 1e-5 mm, 60 iterations.

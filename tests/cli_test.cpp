@@ -1,0 +1,267 @@
+// `align3d` run in-process: the register contract (issue #2), synth, rectify, and the bad-input
+// classes with their exit codes, messages and no output left behind.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "align3d/cli.hpp"
+#include "align3d/error.hpp"
+#include "align3d/io/matrix_io.hpp"
+#include "align3d/io/point_cloud_io.hpp"
+#include "test_util.hpp"
+
+namespace align3d {
+namespace {
+
+struct CliRun {
+  int code;
+  std::string out, err;
+};
+
+CliRun run(const std::vector<std::string>& args) {
+  std::ostringstream out, err;
+  const int code = cli::run(args, out, err);
+  return {code, out.str(), err.str()};
+}
+
+void write_text(const std::filesystem::path& p, const std::string& text) {
+  std::ofstream(p, std::ios::binary) << text;
+}
+
+std::string read_text(const std::filesystem::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+int code(ExitCode c) { return static_cast<int>(c); }
+
+// One scene shared by the tests of this file (written once, read-only afterwards).
+class Cli : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new test::TempDir("cli");
+    ASSERT_EQ(run({"synth", dir_->path().string()}).code, 0);
+  }
+  static void TearDownTestSuite() { delete dir_; }
+  static std::string scene(const std::string& name) { return (*dir_ / name).string(); }
+  static test::TempDir* dir_;
+};
+test::TempDir* Cli::dir_ = nullptr;
+
+TEST_F(Cli, RegisterWritesTheReportAndTheAlignedCloud) {
+  test::TempDir out("register");
+  const CliRun r = run({"register", scene("scan.ply"), scene("model.ply"), "--ground-truth",
+                     scene("ground_truth.txt"), "--report", (out / "r.json").string(), "--output",
+                     (out / "aligned.ply").string()});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("converged: yes"), std::string::npos) << r.out;
+  const auto j = nlohmann::json::parse(read_text(out / "r.json"));
+  for (const char* key : {"transformation", "rotation_deg", "translation", "iterations", "converged",
+                          "rms", "fitness", "correspondences", "history", "stop_reason", "timing_ms",
+                          "rotation_error_deg", "translation_error"})
+    EXPECT_TRUE(j.contains(key)) << key;
+  ASSERT_EQ(j["transformation"].size(), 4u);
+  for (const auto& row : j["transformation"]) EXPECT_EQ(row.size(), 4u);
+  EXPECT_TRUE(j["converged"].get<bool>());
+  EXPECT_LT(j["rotation_error_deg"].get<double>(), 0.05);
+  EXPECT_LT(j["translation_error"].get<double>(), 0.02);
+  EXPECT_NEAR(j["rotation_deg"].get<double>(), 12.0, 0.05);
+  EXPECT_EQ(j["history"].size(), j["iterations"].get<std::size_t>());
+  for (const auto& h : j["history"]) {
+    EXPECT_TRUE(h.contains("rms") && h.contains("kept") && h.contains("threshold"));
+    EXPECT_LE(h["kept"].get<std::size_t>(), 6497u);
+  }
+  EXPECT_NEAR(j["fitness"].get<double>(), j["correspondences"].get<double>() / 6497.0, 1e-12);
+  EXPECT_GT(j["timing_ms"]["total"].get<double>(), 0.0);
+
+  // The aligned cloud is the scan moved by the reported T (float32 storage: 1e-4 mm at 200 mm).
+  Eigen::Matrix4d M;
+  for (int i = 0; i < 4; ++i)
+    for (int k = 0; k < 4; ++k) M(i, k) = j["transformation"][i][k].get<double>();
+  const PointCloud scan = io::read_point_cloud(scene("scan.ply"));
+  const PointCloud aligned = io::read_point_cloud(out / "aligned.ply");
+  ASSERT_EQ(aligned.size(), scan.size());
+  for (std::size_t i = 0; i < scan.size(); i += 97)
+    EXPECT_LT((aligned.positions[i] - Eigen::Isometry3d(M) * scan.positions[i]).norm(), 1e-3);
+}
+
+TEST_F(Cli, ReportToStdoutIsPureJson) {
+  const CliRun r = run({"register", scene("scan.ply"), scene("model.ply"), "--report", "-",
+                     "--method", "point-to-point", "--reject", "median:2.5:0.5"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);  // throws if anything else was printed
+  EXPECT_EQ(j["method"], "point-to-point");
+  EXPECT_EQ(j["rejection"], "median:2.5:0.5");
+}
+
+TEST_F(Cli, InitFromAMatrixFile) {
+  // Starting at the truth, point-to-plane stays there.
+  const CliRun r = run({"register", scene("scan.ply"), scene("model.ply"), "--init",
+                     scene("ground_truth.txt"), "--ground-truth", scene("ground_truth.txt"),
+                     "--report", "-"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_LT(nlohmann::json::parse(r.out)["rotation_error_deg"].get<double>(), 0.05);
+}
+
+TEST_F(Cli, SynthWritesTheSameBytesForTheSameSeed) {
+  test::TempDir again("synth");
+  ASSERT_EQ(run({"synth", again.path().string()}).code, 0);
+  for (const char* f : {"model.ply", "scan.ply", "ground_truth.txt", "plate.ply",
+                        "plate_cluttered.ply", "scene.json"})
+    EXPECT_EQ(read_text(again / f), read_text(scene(f))) << f;
+  test::TempDir other("synth_other");
+  ASSERT_EQ(run({"synth", other.path().string(), "--seed", "40"}).code, 0);
+  EXPECT_NE(read_text(other / "scan.ply"), read_text(scene("scan.ply")));
+}
+
+TEST_F(Cli, RectifyReportsTheTilt) {
+  const CliRun r = run({"rectify", scene("plate.ply"), "--report", "-"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  for (const char* key : {"normal", "tilt_before_deg", "tilt_after_deg", "inliers", "flatness",
+                          "transformation"})
+    EXPECT_TRUE(j.contains(key)) << key;
+  EXPECT_NEAR(j["tilt_before_deg"].get<double>(), 7.0, 0.05);
+  EXPECT_LT(j["tilt_after_deg"].get<double>(), 1e-3);
+  EXPECT_GT(j["normal"][2].get<double>(), 0.0);
+}
+
+// --- bad input: one line naming the file, the documented exit code, nothing written -------------
+
+struct BadCase {
+  std::string name;
+  int expected;
+  std::string must_mention;
+};
+
+class CliBadInput : public Cli {
+ protected:
+  // Runs register with `source` and checks the error contract; an existing output must survive.
+  void expect_failure(const std::vector<std::string>& args, int expected, const std::string& mention) {
+    test::TempDir out("bad");
+    write_text(out / "aligned.ply", "previous good content");
+    std::vector<std::string> full = args;
+    full.insert(full.end(), {"--output", (out / "aligned.ply").string(), "--report",
+                             (out / "r.json").string()});
+    const CliRun r = run(full);
+    EXPECT_EQ(r.code, expected) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_NE(r.err.find(mention), std::string::npos) << r.err;
+    EXPECT_EQ(read_text(out / "aligned.ply"), "previous good content");
+    EXPECT_FALSE(std::filesystem::exists(out / "r.json"));
+    std::size_t files = 0;
+    for ([[maybe_unused]] const auto& e : std::filesystem::directory_iterator(out.path())) ++files;
+    EXPECT_EQ(files, 1u) << "a temporary file was left behind";
+  }
+};
+
+TEST_F(CliBadInput, MissingFile) {
+  expect_failure({"register", "/nonexistent/scan.ply", scene("model.ply")}, code(ExitCode::kInput),
+                 "/nonexistent/scan.ply");
+}
+
+TEST_F(CliBadInput, UnknownExtension) {
+  test::TempDir d("ext");
+  write_text(d / "cloud.obj", "v 1 2 3\n");
+  expect_failure({"register", (d / "cloud.obj").string(), scene("model.ply")},
+                 code(ExitCode::kInput), "cloud.obj");
+}
+
+TEST_F(CliBadInput, TruncatedPly) {
+  test::TempDir d("trunc");
+  const std::string full = read_text(scene("scan.ply"));
+  write_text(d / "cut.ply", full.substr(0, full.size() / 2));
+  expect_failure({"register", (d / "cut.ply").string(), scene("model.ply")}, code(ExitCode::kInput),
+                 "cut.ply");
+}
+
+TEST_F(CliBadInput, HeaderLiesAboutTheCount) {
+  test::TempDir d("lie");
+  write_text(d / "lie.ply",
+             "ply\nformat ascii 1.0\nelement vertex 1000000000000\nproperty float x\n"
+             "property float y\nproperty float z\nend_header\n1 2 3\n");
+  expect_failure({"register", (d / "lie.ply").string(), scene("model.ply")}, code(ExitCode::kInput),
+                 "lie.ply");
+}
+
+TEST_F(CliBadInput, BadNumberInText) {
+  test::TempDir d("num");
+  write_text(d / "bad.xyz", "1 2 3\n4 five 6\n7 8 9\n");
+  expect_failure({"register", (d / "bad.xyz").string(), scene("model.ply")}, code(ExitCode::kInput),
+                 "bad.xyz");
+}
+
+TEST_F(CliBadInput, TooFewPoints) {
+  test::TempDir d("few");
+  write_text(d / "few.xyz", "0 0 0\n1 0 0\n0 1 0\n0 0 1\n1 1 1\n");
+  expect_failure({"register", (d / "few.xyz").string(), scene("model.ply")}, code(ExitCode::kData),
+                 "source");
+}
+
+TEST_F(CliBadInput, CollinearPoints) {
+  test::TempDir d("line");
+  std::string text;
+  for (int i = 0; i < 50; ++i) text += std::to_string(i) + " " + std::to_string(2 * i) + " 1\n";
+  write_text(d / "line.xyz", text);
+  expect_failure({"register", scene("scan.ply"), (d / "line.xyz").string()}, code(ExitCode::kData),
+                 "line");
+}
+
+TEST_F(CliBadInput, MalformedMatrix) {
+  test::TempDir d("mat");
+  write_text(d / "init.txt", "1 0 0 0\n0 1 0 0\n0 0 1 0\n");
+  expect_failure({"register", scene("scan.ply"), scene("model.ply"), "--init", (d / "init.txt").string()},
+                 code(ExitCode::kInput), "init.txt");
+}
+
+TEST_F(CliBadInput, WrongFlags) {
+  expect_failure({"register", scene("scan.ply"), scene("model.ply"), "--method", "plane"},
+                 code(ExitCode::kUsage), "--method");
+  expect_failure({"register", scene("scan.ply"), scene("model.ply"), "--reject", "median:-1"},
+                 code(ExitCode::kUsage), "FACTOR");
+  expect_failure({"register", scene("scan.ply"), scene("model.ply"), "--max-iterations", "0"},
+                 code(ExitCode::kUsage), "max-iterations");
+  expect_failure({"register", scene("scan.ply"), scene("model.ply"), "--bogus"},
+                 code(ExitCode::kUsage), "--bogus");
+  expect_failure({"register", scene("scan.ply")}, code(ExitCode::kUsage), "TARGET");
+}
+
+TEST_F(CliBadInput, NoCorrespondencesIsNoSolution) {
+  // distance:1e-6 mm admits no pair from the identity: exit 6, and no aligned cloud.
+  test::TempDir out("nosol");
+  const CliRun r = run({"register", scene("scan.ply"), scene("model.ply"), "--reject", "distance:1e-6",
+                     "--output", (out / "aligned.ply").string()});
+  EXPECT_EQ(r.code, code(ExitCode::kNoSolution)) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(out / "aligned.ply"));
+}
+
+TEST_F(Cli, NonFinitePointsAreDroppedWithAWarning) {
+  test::TempDir d("nan");
+  const PointCloud scan = io::read_point_cloud(scene("scan.ply"));
+  std::string text;
+  for (std::size_t i = 0; i < scan.size(); ++i) {
+    const auto& p = scan.positions[i];
+    text += std::to_string(p.x()) + " " + std::to_string(p.y()) + " " + std::to_string(p.z()) + "\n";
+    if (i % 1000 == 0) text += "nan 1 2\n1 inf 2\n";
+  }
+  write_text(d / "scan.xyz", text);
+  const CliRun r = run({"register", (d / "scan.xyz").string(), scene("model.ply")});
+  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.err.find("dropped 14 points"), std::string::npos) << r.err;
+}
+
+TEST(CliHelp, HelpAndVersionSucceed) {
+  EXPECT_EQ(run({"--help"}).code, 0);
+  const CliRun help = run({"register", "--help"});
+  EXPECT_EQ(help.code, 0);
+  EXPECT_NE(help.out.find("--reject"), std::string::npos);
+  EXPECT_EQ(run({"--version"}).code, 0);
+  EXPECT_EQ(run({}).code, code(ExitCode::kUsage));
+}
+
+}  // namespace
+}  // namespace align3d

@@ -1,0 +1,253 @@
+// KdTree. Oracle: a brute-force scan over all points, with the squared distance summed in the same
+// order as nanoflann's L2_Simple_Adaptor (dx² + dy² + dz²), so equal distances compare exactly.
+#include "align3d/kdtree.hpp"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Core>
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <limits>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "align3d/random.hpp"
+
+namespace align3d {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+double sq_dist(const Eigen::Vector3d& query, const Eigen::Vector3d& p) {
+  double sum = 0;
+  for (int d = 0; d < 3; ++d) {
+    const double diff = query[d] - p[d];
+    sum += diff * diff;
+  }
+  return sum;
+}
+
+std::vector<double> brute_sorted_sq_distances(const std::vector<Eigen::Vector3d>& points,
+                                              const Eigen::Vector3d& query) {
+  std::vector<double> d;
+  d.reserve(points.size());
+  for (const auto& p : points) d.push_back(sq_dist(query, p));
+  std::sort(d.begin(), d.end());
+  return d;
+}
+
+std::vector<Eigen::Vector3d> random_points(std::size_t n, Random& rng) {
+  std::vector<Eigen::Vector3d> points;
+  points.reserve(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const double x = rng.uniform(-1, 1), y = rng.uniform(-1, 1), z = rng.uniform(-1, 1);
+    points.emplace_back(x, y, z);
+  }
+  return points;
+}
+
+// Queries: points of the cloud themselves (distance 0 ties with duplicates) and random points in a
+// box a little larger than the cloud's.
+std::vector<Eigen::Vector3d> queries_for(const std::vector<Eigen::Vector3d>& points, Random& rng) {
+  std::vector<Eigen::Vector3d> queries;
+  for (std::size_t i = 0; i < std::min<std::size_t>(points.size(), 20); ++i)
+    queries.push_back(points[rng.below(points.size())]);
+  for (int i = 0; i < 60; ++i) {
+    const double x = rng.uniform(-1.5, 1.5), y = rng.uniform(-1.5, 1.5), z = rng.uniform(-1.5, 1.5);
+    queries.emplace_back(x, y, z);
+  }
+  return queries;
+}
+
+// Checks nearest, knn (several k, including k > N) and radius for every query against brute force.
+void check_against_brute_force(const std::vector<Eigen::Vector3d>& points, Random& rng) {
+  const KdTree tree(points);
+  ASSERT_EQ(tree.size(), points.size());
+  const std::size_t n = points.size();
+  std::vector<Neighbor> found;
+  for (const auto& query : queries_for(points, rng)) {
+    const std::vector<double> brute = brute_sorted_sq_distances(points, query);
+
+    Neighbor nb;
+    ASSERT_TRUE(tree.nearest(query, nb));
+    ASSERT_LT(nb.index, n);
+    EXPECT_EQ(nb.sq_distance, brute[0]);
+    EXPECT_EQ(sq_dist(query, points[nb.index]), nb.sq_distance);
+
+    for (std::size_t k :
+         {std::size_t{1}, std::size_t{2}, std::size_t{7}, std::size_t{20}, n, n + 5}) {
+      tree.knn(query, k, found);
+      ASSERT_EQ(found.size(), std::min(k, n)) << "k = " << k;
+      std::set<std::size_t> distinct;
+      for (std::size_t i = 0; i < found.size(); ++i) {
+        ASSERT_LT(found[i].index, n);
+        distinct.insert(found[i].index);
+        // The i-th reported distance is the i-th smallest, and it is the distance of that index.
+        EXPECT_EQ(found[i].sq_distance, brute[i]) << "k = " << k << ", rank " << i;
+        EXPECT_EQ(sq_dist(query, points[found[i].index]), found[i].sq_distance);
+      }
+      EXPECT_EQ(distinct.size(), found.size()) << "an index reported twice";
+    }
+
+    // Radii between the 0th and ~30th smallest distance. A radius with a point exactly on it is
+    // skipped here (that boundary has its own test, RadiusIncludesPointsExactlyOnTheRadius).
+    for (double sq_r : {brute[0] * 0.5, brute[std::min<std::size_t>(n - 1, 3)] * 1.0001,
+                        brute[std::min<std::size_t>(n - 1, 30)] * 0.9999, 10.0}) {
+      if (std::binary_search(brute.begin(), brute.end(), sq_r)) continue;
+      tree.radius(query, sq_r, found);
+      std::set<std::size_t> expected;
+      for (std::size_t i = 0; i < n; ++i)
+        if (sq_dist(query, points[i]) <= sq_r) expected.insert(i);
+      std::set<std::size_t> got;
+      for (std::size_t i = 0; i < found.size(); ++i) {
+        got.insert(found[i].index);
+        if (i > 0) {
+          EXPECT_LE(found[i - 1].sq_distance, found[i].sq_distance) << "not sorted";
+        }
+      }
+      EXPECT_EQ(got.size(), found.size()) << "an index reported twice";
+      EXPECT_EQ(got, expected) << "sq_radius = " << sq_r;
+    }
+  }
+}
+
+TEST(KdTree, AgreesWithBruteForceOnOnePoint) {
+  Random rng(101);
+  check_against_brute_force(random_points(1, rng), rng);
+}
+
+TEST(KdTree, AgreesWithBruteForceOnTwoPoints) {
+  Random rng(102);
+  check_against_brute_force(random_points(2, rng), rng);
+}
+
+TEST(KdTree, AgreesWithBruteForceOnThousandPoints) {
+  Random rng(103);
+  check_against_brute_force(random_points(1000, rng), rng);
+}
+
+TEST(KdTree, AgreesWithBruteForceWithDuplicatePoints) {
+  // 150 distinct points, each present 4 times, shuffled: many exact ties in every query.
+  Random rng(104);
+  const std::vector<Eigen::Vector3d> distinct = random_points(150, rng);
+  std::vector<Eigen::Vector3d> points;
+  for (int copy = 0; copy < 4; ++copy)
+    points.insert(points.end(), distinct.begin(), distinct.end());
+  for (std::size_t i = points.size() - 1; i > 0; --i)
+    std::swap(points[i], points[rng.below(i + 1)]);
+  check_against_brute_force(points, rng);
+}
+
+TEST(KdTree, AgreesWithBruteForceWhenAllPointsCoincide) {
+  Random rng(105);
+  const std::vector<Eigen::Vector3d> points(40, Eigen::Vector3d(0.25, -0.5, 0.75));
+  check_against_brute_force(points, rng);
+}
+
+TEST(KdTree, BoundedNearestIsFalseExactlyWhenNothingIsStrictlyInsideTheBound) {
+  Random rng(106);
+  const std::vector<Eigen::Vector3d> points = random_points(500, rng);
+  const KdTree tree(points);
+  for (const auto& query : queries_for(points, rng)) {
+    const std::vector<double> brute = brute_sorted_sq_distances(points, query);
+    // Bounds below, exactly at, and above the nearest squared distance, plus a second-nearest one.
+    for (double bound : {0.0, brute[0] * 0.999, brute[0], brute[0] * 1.001, brute[1], kInf}) {
+      const bool expected = brute[0] < bound;  // the documented exclusive bound
+      Neighbor nb;
+      const bool got = tree.nearest(query, nb, bound);
+      ASSERT_EQ(got, expected) << "bound " << bound << ", nearest " << brute[0];
+      if (got) {
+        EXPECT_EQ(nb.sq_distance, brute[0]);
+        EXPECT_EQ(sq_dist(query, points[nb.index]), brute[0]);
+      }
+    }
+  }
+}
+
+TEST(KdTree, BoundedNearestOnExactGridDistances) {
+  // Integer coordinates make every squared distance exact, so the boundary case is unambiguous.
+  const std::vector<Eigen::Vector3d> points = {{1, 0, 0}, {0, 2, 0}, {0, 0, -3}};
+  const KdTree tree(points);
+  Neighbor nb;
+  EXPECT_FALSE(tree.nearest(Eigen::Vector3d::Zero(), nb, 1.0));  // exclusive: distance² = 1 is out
+  ASSERT_TRUE(tree.nearest(Eigen::Vector3d::Zero(), nb, std::nextafter(1.0, 2.0)));
+  EXPECT_EQ(nb.index, 0u);
+  EXPECT_EQ(nb.sq_distance, 1.0);
+  ASSERT_TRUE(tree.nearest(Eigen::Vector3d(0, 0, -2), nb, 1.5));
+  EXPECT_EQ(nb.index, 2u);
+  EXPECT_EQ(nb.sq_distance, 1.0);
+}
+
+TEST(KdTree, RadiusIncludesPointsExactlyOnTheRadius) {
+  // kdtree.hpp documents radius() as "squared distance <= sq_radius". On an integer grid the six
+  // axis neighbours of the origin are at squared distance exactly 1, so with sq_radius = 1 the
+  // result must hold the origin and those six (7 points), not only the origin.
+  std::vector<Eigen::Vector3d> points;
+  for (int x = -2; x <= 2; ++x)
+    for (int y = -2; y <= 2; ++y)
+      for (int z = -2; z <= 2; ++z) points.emplace_back(x, y, z);
+  const KdTree tree(points);
+  std::vector<Neighbor> found;
+  tree.radius(Eigen::Vector3d::Zero(), 1.0, found);
+  std::size_t expected = 0;
+  for (const auto& p : points) expected += sq_dist(Eigen::Vector3d::Zero(), p) <= 1.0;
+  ASSERT_EQ(expected, 7u);
+  EXPECT_EQ(found.size(), expected) << "points at squared distance == sq_radius are left out";
+  for (const auto& nb : found) EXPECT_LE(nb.sq_distance, 1.0);
+}
+
+TEST(KdTree, EmptyTreeFindsNothing) {
+  const std::vector<Eigen::Vector3d> points;
+  const KdTree tree(points);
+  EXPECT_EQ(tree.size(), 0u);
+  Neighbor nb;
+  EXPECT_FALSE(tree.nearest(Eigen::Vector3d::Zero(), nb));
+  std::vector<Neighbor> found(3);  // stale content must be cleared
+  tree.knn(Eigen::Vector3d::Zero(), 5, found);
+  EXPECT_TRUE(found.empty());
+  found.resize(3);
+  tree.radius(Eigen::Vector3d::Zero(), 100.0, found);
+  EXPECT_TRUE(found.empty());
+}
+
+TEST(KdTree, KnnWithKLargerThanSizeReturnsAllPointsSorted) {
+  Random rng(107);
+  const std::vector<Eigen::Vector3d> points = random_points(9, rng);
+  const KdTree tree(points);
+  std::vector<Neighbor> found;
+  const Eigen::Vector3d query(0.1, 0.2, 0.3);
+  tree.knn(query, 1000, found);
+  ASSERT_EQ(found.size(), points.size());
+  std::set<std::size_t> indices;
+  for (const auto& nb : found) indices.insert(nb.index);
+  EXPECT_EQ(indices.size(), points.size());
+  const std::vector<double> brute = brute_sorted_sq_distances(points, query);
+  for (std::size_t i = 0; i < found.size(); ++i) EXPECT_EQ(found[i].sq_distance, brute[i]);
+  tree.knn(query, 0, found);
+  EXPECT_TRUE(found.empty());
+}
+
+TEST(KdTree, ConcurrentQueriesGiveTheSameAnswers) {
+  // The header allows concurrent const queries (knn/radius use thread_local scratch space).
+  Random rng(108);
+  const std::vector<Eigen::Vector3d> points = random_points(2000, rng);
+  const KdTree tree(points);
+  const std::vector<Eigen::Vector3d> queries = random_points(400, rng);
+  std::vector<std::vector<Neighbor>> serial(queries.size()), parallel(queries.size());
+  for (std::size_t i = 0; i < queries.size(); ++i) tree.knn(queries[i], 8, serial[i]);
+#pragma omp parallel for num_threads(2) schedule(static, 1)
+  for (std::ptrdiff_t i = 0; i < static_cast<std::ptrdiff_t>(queries.size()); ++i)
+    tree.knn(queries[static_cast<std::size_t>(i)], 8, parallel[static_cast<std::size_t>(i)]);
+  for (std::size_t i = 0; i < queries.size(); ++i) {
+    ASSERT_EQ(serial[i].size(), parallel[i].size());
+    for (std::size_t j = 0; j < serial[i].size(); ++j) {
+      EXPECT_EQ(serial[i][j].index, parallel[i][j].index);
+      EXPECT_EQ(serial[i][j].sq_distance, parallel[i][j].sq_distance);
+    }
+  }
+}
+
+}  // namespace
+}  // namespace align3d
