@@ -445,7 +445,10 @@ void expect_hand_pcd(const PointCloud& cloud) {
 TEST_F(IoTest, PcdAsciiSkipsOtherFieldsHonouringCount) {
   std::string text = pcd_header(kPcdFields, 2, "ascii");
   for (const auto& point : kPcdValues) {
-    for (std::size_t i = 0; i < point.size(); ++i) text += (i ? " " : "") + format_double(point[i]);
+    for (std::size_t i = 0; i < point.size(); ++i) {
+      if (i > 0) text += ' ';  // not (i ? " " : "") + ...: GCC 12 warns falsely (-Wrestrict)
+      text += format_double(point[i]);
+    }
     text += "\n";
   }
   expect_hand_pcd(read_point_cloud(write_file("hand.pcd", text)));
