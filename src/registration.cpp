@@ -18,6 +18,7 @@ constexpr double kKernelFraction = 0.5;       // Geman-McClure scale = τ/2
 constexpr double kFinalSpacings = 3.0;        // final τ >= 3 s
 constexpr double kFinalSigmas = 4.0;          // final τ >= 4 σ̂
 constexpr int kCoarseIterations = 30;
+constexpr int kMaxStages = 12;                // L/8 · 2^-12 is far below any useful spacing
 
 void append(RegistrationResult& out, const IcpResult& r, const IcpSettings& s) {
   StageRecord stage;
@@ -85,28 +86,30 @@ RegistrationResult register_clouds(const PointCloud& source, const PointCloud& t
     out.undefined_normals = estimate_normals(target, tree, ns).undefined;
   }
 
-  IcpSettings final;
-  final.method = settings.method;
-  final.threads = settings.threads;
-  final.termination.max_iterations = settings.max_iterations;
-  final.termination.rms_change = settings.tolerance;
-  final.termination.rms_change_relative = settings.tolerance_relative;
-  if (!settings.transform_criterion) final.termination.rotation = 0;
+  IcpSettings last;
+  last.method = settings.method;
+  last.threads = settings.threads;
+  last.termination.max_iterations = settings.max_iterations;
+  last.termination.rms_change = settings.tolerance;
+  last.termination.rms_change_relative = settings.tolerance_relative;
+  if (!settings.transform_criterion) last.termination.rotation = 0;
 
   if (settings.rejection) {
-    final.rejection = *settings.rejection;
-    out.icp = icp(source, target, tree, init, final);
-    append(out, out.icp, final);
+    last.rejection = *settings.rejection;
+    out.icp = icp(source, target, tree, init, last);
+    append(out, out.icp, last);
     return out;
   }
 
   const double diagonal = bounding_box_diagonal(target);
-  const double spacing = point_spacing(target, tree);
+  // A cloud of duplicated points has no measurable spacing; fall back to a fine fraction of L.
+  double spacing = point_spacing(target, tree);
+  if (!(spacing > 0)) spacing = 1e-4 * diagonal;
   out.point_spacing = spacing;
   const double floor = kFinalSpacings * spacing;
 
   Eigen::Isometry3d T = init;
-  IcpSettings coarse = final;
+  IcpSettings coarse = last;
   coarse.method = IcpMethod::kPointToPlane;
   coarse.termination.max_iterations = kCoarseIterations;
   coarse.termination.rms_change = 1e-4;
@@ -114,7 +117,8 @@ RegistrationResult register_clouds(const PointCloud& source, const PointCloud& t
   coarse.termination.rotation = 1e-5;
   coarse.termination.translation = 1e-6;
   double sigma = 0;
-  for (double tau = kStartFraction * diagonal; tau > floor; tau *= kShrink) {
+  double tau = kStartFraction * diagonal;
+  for (int stage = 0; stage < kMaxStages && tau > floor; ++stage, tau *= kShrink) {
     coarse.rejection = RejectionRule::max_distance(tau);
     coarse.robust_scale = kKernelFraction * tau;
     const IcpResult r = icp(source, target, tree, T, coarse);
@@ -123,11 +127,11 @@ RegistrationResult register_clouds(const PointCloud& source, const PointCloud& t
     T = r.T_target_source;
     sigma = r.rms;  // point-to-plane RMS: the noise along the normal once settled
   }
-  const double tau = std::max(floor, kFinalSigmas * sigma);
-  final.rejection = RejectionRule::max_distance(tau);
-  final.robust_scale = kKernelFraction * tau;
-  out.icp = icp(source, target, tree, T, final);
-  append(out, out.icp, final);
+  tau = std::max(floor, kFinalSigmas * sigma);
+  last.rejection = RejectionRule::max_distance(tau);
+  last.robust_scale = kKernelFraction * tau;
+  out.icp = icp(source, target, tree, T, last);
+  append(out, out.icp, last);
   return out;
 }
 

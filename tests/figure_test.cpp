@@ -385,5 +385,271 @@ TEST_F(FigureTest, OverwritesAnExistingFigure) {
   EXPECT_EQ(png.width(), 500);
 }
 
+// ---------------------------------------------------------------------------------------------
+// Heat maps
+
+// The colour map's ends (viridis): dark purple for min_value, yellow for max_value.
+constexpr Image::Rgb8 kLowEnd{0x44, 0x01, 0x54};
+constexpr Image::Rgb8 kHighEnd{0xfd, 0xe7, 0x25};
+
+bool near(Image::Rgb8 a, Image::Rgb8 b, int tolerance = 1) {
+  return std::abs(a.r - b.r) <= tolerance && std::abs(a.g - b.g) <= tolerance &&
+         std::abs(a.b - b.b) <= tolerance;
+}
+
+// A 4-connected region of pixels of one colour.
+struct Blob {
+  int x0, y0, x1, y1;  // inclusive bounding box
+  int area;
+  int cx() const { return (x0 + x1) / 2; }
+  int cy() const { return (y0 + y1) / 2; }
+};
+
+// Regions of at least min_area pixels within 1 of `color`, left to right. The colour bar's
+// gradient matches a colour in a strip a pixel or two high, far below a cell's area.
+std::vector<Blob> blobs(const Image& png, Image::Rgb8 color, int min_area = 300) {
+  const int w = png.width(), h = png.height();
+  std::vector<char> seen(static_cast<std::size_t>(w) * h, 0);
+  std::vector<Blob> out;
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      if (seen[y * w + x] || !near(png.at(x, y), color)) continue;
+      Blob b{x, y, x, y, 0};
+      std::vector<std::pair<int, int>> stack{{x, y}};
+      seen[y * w + x] = 1;
+      while (!stack.empty()) {
+        const auto [px, py] = stack.back();
+        stack.pop_back();
+        ++b.area;
+        b.x0 = std::min(b.x0, px), b.x1 = std::max(b.x1, px);
+        b.y0 = std::min(b.y0, py), b.y1 = std::max(b.y1, py);
+        const int nx[4] = {px - 1, px + 1, px, px}, ny[4] = {py, py, py - 1, py + 1};
+        for (int k = 0; k < 4; ++k) {
+          if (nx[k] < 0 || ny[k] < 0 || nx[k] >= w || ny[k] >= h) continue;
+          if (seen[ny[k] * w + nx[k]] || !near(png.at(nx[k], ny[k]), color)) continue;
+          seen[ny[k] * w + nx[k]] = 1;
+          stack.emplace_back(nx[k], ny[k]);
+        }
+      }
+      if (b.area >= min_area) out.push_back(b);
+    }
+  }
+  std::sort(out.begin(), out.end(), [](const Blob& a, const Blob& b) { return a.cx() < b.cx(); });
+  return out;
+}
+
+HeatMap grid_map(int rows, int cols, double fill) {
+  HeatMap m;
+  m.title = "success rate";
+  m.x_label = "rotation [deg]";
+  m.y_label = "translation [m]";
+  m.value_label = "success";
+  for (int c = 0; c < cols; ++c) m.x_ticks.push_back(std::to_string(15 * c));
+  for (int r = 0; r < rows; ++r) m.y_ticks.push_back(std::to_string(r) + ".5");
+  m.values = Eigen::MatrixXd::Constant(rows, cols, fill);
+  return m;
+}
+
+TEST_F(FigureTest, HeatMapWritesSvgAndPngOfTheRequestedSize) {
+  const HeatMap m = grid_map(5, 8, 0.7);
+  write_heatmap(m, dir_ / "heat");
+  ASSERT_TRUE(fs::exists(dir_ / "heat.svg"));
+  const std::string svg = read_all(dir_ / "heat.svg");
+  EXPECT_NE(svg.find("</svg>"), std::string::npos);
+  const Image png(dir_ / "heat.png");
+  ASSERT_TRUE(png.ok());
+  EXPECT_EQ(png.width(), 700);
+  EXPECT_EQ(png.height(), 520);
+  int files = 0;
+  for ([[maybe_unused]] const auto& entry : fs::directory_iterator(dir_)) ++files;
+  EXPECT_EQ(files, 2);
+}
+
+TEST_F(FigureTest, HeatMapEndColoursLandInTheirCellsWithRowZeroAtTheBottom) {
+  // 2 x 3: min_value in row 0, column 0 (lower left), max_value in row 1, column 2 (upper right),
+  // the middle value elsewhere.
+  HeatMap m = grid_map(2, 3, 0.5);
+  m.annotate = false;
+  m.values(0, 0) = 0;
+  m.values(1, 2) = 1;
+  write_heatmap(m, dir_ / "heat");
+  const Image png(dir_ / "heat.png");
+  ASSERT_TRUE(png.ok());
+
+  const auto low = blobs(png, kLowEnd), high = blobs(png, kHighEnd);
+  ASSERT_EQ(low.size(), 1u);
+  ASSERT_EQ(high.size(), 1u);
+  EXPECT_TRUE(near(png.at(low[0].cx(), low[0].cy()), kLowEnd));  // cell centres, exactly
+  EXPECT_TRUE(near(png.at(high[0].cx(), high[0].cy()), kHighEnd));
+  // Cells are solid rectangles of one size.
+  for (const Blob& b : {low[0], high[0]}) {
+    EXPECT_EQ(b.area, (b.x1 - b.x0 + 1) * (b.y1 - b.y0 + 1));
+    EXPECT_GT(b.x1 - b.x0, 100);
+    EXPECT_GT(b.y1 - b.y0, 100);
+  }
+  EXPECT_NEAR(low[0].x1 - low[0].x0, high[0].x1 - high[0].x0, 2);
+  EXPECT_NEAR(low[0].y1 - low[0].y0, high[0].y1 - high[0].y0, 2);
+  // Lower-left and upper-right: two cell pitches apart in x, one in y.
+  const double pitch_x = 0.5 * (high[0].cx() - low[0].cx());
+  const double pitch_y = low[0].cy() - high[0].cy();
+  EXPECT_NEAR(pitch_x, low[0].x1 - low[0].x0 + 2, 3);  // a cell plus its white border
+  EXPECT_NEAR(pitch_y, low[0].y1 - low[0].y0 + 2, 3);
+
+  // The four other cells hold one middle colour, whatever it is: sample the cell right of the
+  // lower-left one, and find it at the other three places of the lattice too.
+  const Image::Rgb8 mid = png.at(static_cast<int>(low[0].cx() + pitch_x), low[0].cy());
+  const auto middles = blobs(png, mid);
+  ASSERT_EQ(middles.size(), 4u);
+  for (const Blob& b : middles) {
+    const double col = (b.cx() - low[0].cx()) / pitch_x, row = (low[0].cy() - b.cy()) / pitch_y;
+    EXPECT_NEAR(col, std::round(col), 0.05);
+    EXPECT_NEAR(row, std::round(row), 0.05);
+  }
+  // White borders between cells.
+  const Image::Rgb8 between = png.at(low[0].x1 + 1, low[0].cy());
+  EXPECT_EQ(between.r + between.g + between.b, 3 * 255);
+}
+
+TEST_F(FigureTest, HeatMapValuesAreWrittenInContrastingColours) {
+  HeatMap m = grid_map(2, 3, 0.5);
+  m.values(0, 0) = 0;
+  m.values(1, 2) = 1;
+  m.annotate = false;
+  write_heatmap(m, dir_ / "plain");
+  m.annotate = true;
+  write_heatmap(m, dir_ / "annotated");
+  const Image plain(dir_ / "plain.png"), annotated(dir_ / "annotated.png");
+  const auto low = blobs(plain, kLowEnd), high = blobs(plain, kHighEnd);
+  ASSERT_EQ(low.size(), 1u);
+  ASSERT_EQ(high.size(), 1u);
+  auto whitish = [](Image::Rgb8 c) { return c.r > 200 && c.g > 200 && c.b > 200; };
+  auto blackish = [](Image::Rgb8 c) { return c.r + c.g + c.b < 150; };
+  const Blob& l = low[0];
+  const Blob& h = high[0];
+  EXPECT_EQ(plain.count(l.x0, l.y0, l.x1, l.y1, whitish), 0);
+  EXPECT_EQ(plain.count(h.x0, h.y0, h.x1, h.y1, blackish), 0);
+  EXPECT_GT(annotated.count(l.x0, l.y0, l.x1, l.y1, whitish), 20);   // "0%" in white on purple
+  EXPECT_GT(annotated.count(h.x0, h.y0, h.x1, h.y1, blackish), 20);  // "100%" in black on yellow
+  EXPECT_EQ(annotated.count(h.x0, h.y0, h.x1, h.y1, whitish), 0);
+}
+
+TEST_F(FigureTest, HeatMapNoDataCellsAreDrawnGray) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  HeatMap m = grid_map(2, 3, 0);
+  m.values(1, 1) = nan;
+  m.values(0, 2) = std::numeric_limits<double>::infinity();
+  ASSERT_NO_THROW(write_heatmap(m, dir_ / "gaps"));
+  const Image png(dir_ / "gaps.png");
+  ASSERT_TRUE(png.ok());
+  auto cells = blobs(png, kLowEnd);  // the four cells with data: (0, 0), (0, 1), (1, 0), (1, 2)
+  ASSERT_EQ(cells.size(), 4u);
+  int bottom = 0;
+  for (const Blob& b : cells) bottom = std::max(bottom, b.cy());
+  std::vector<Blob> lower, upper;  // each left to right
+  for (const Blob& b : cells) (b.cy() > bottom - 5 ? lower : upper).push_back(b);
+  ASSERT_EQ(lower.size(), 2u);
+  ASSERT_EQ(upper.size(), 2u);
+  // The gaps, (1, 1) and (0, 2), are light gray with darker gray hatching.
+  auto gray = [](Image::Rgb8 c) { return c.r == c.g && c.g == c.b && c.r > 150 && c.r < 240; };
+  auto expect_gray = [&](const Blob& column, const Blob& row) {
+    const int area = (column.x1 - column.x0) * (row.y1 - row.y0);
+    EXPECT_GT(png.count(column.x0, row.y0, column.x1, row.y1, gray), area * 9 / 10);
+    EXPECT_LT(
+        png.count(column.x0, row.y0, column.x1, row.y1, [](Image::Rgb8 c) { return c.r < 200; }),
+        area / 2);
+    EXPECT_GT(
+        png.count(column.x0, row.y0, column.x1, row.y1, [](Image::Rgb8 c) { return c.r < 200; }),
+        area / 20);
+  };
+  expect_gray(lower[1], upper[0]);
+  expect_gray(upper[1], lower[0]);
+
+  m.values.setConstant(nan);  // nothing but gaps still draws
+  EXPECT_NO_THROW(write_heatmap(m, dir_ / "empty"));
+}
+
+TEST_F(FigureTest, HeatMapRejectsBadInput) {
+  auto throws = [&](const HeatMap& m) {
+    EXPECT_THROW(write_heatmap(m, dir_ / "bad"), std::invalid_argument);
+  };
+  HeatMap m = grid_map(2, 3, 0.5);
+  m.x_ticks.pop_back();
+  throws(m);
+  m = grid_map(2, 3, 0.5);
+  m.y_ticks.push_back("extra");
+  throws(m);
+  m = grid_map(2, 3, 0.5);
+  m.values.resize(0, 0);
+  m.x_ticks.clear();
+  m.y_ticks.clear();
+  throws(m);
+  m = grid_map(2, 3, 0.5);
+  m.min_value = 1;
+  throws(m);  // min == max
+  m.min_value = 2;
+  throws(m);  // min > max
+  m.min_value = std::numeric_limits<double>::quiet_NaN();
+  throws(m);
+  m.min_value = 0;
+  m.max_value = std::numeric_limits<double>::infinity();
+  throws(m);
+  m = grid_map(2, 3, 0.5);
+  m.value_format = "percentage";
+  throws(m);
+  m = grid_map(2, 3, 0.5);
+  m.width = 10;
+  throws(m);
+
+  EXPECT_THROW(write_heatmaps({}, "none", dir_ / "bad"), std::invalid_argument);
+  std::vector<HeatMap> panels(2, grid_map(2, 3, 0.5));
+  panels[1].max_value = 2;  // one colour bar cannot show two ranges
+  EXPECT_THROW(write_heatmaps(panels, "", dir_ / "bad"), std::invalid_argument);
+  panels = std::vector<HeatMap>(3, grid_map(2, 3, 0.5));
+  for (auto& p : panels) p.width = 6000;
+  EXPECT_THROW(write_heatmaps(panels, "", dir_ / "bad"), std::invalid_argument);
+  EXPECT_TRUE(fs::is_empty(dir_));
+}
+
+TEST_F(FigureTest, HeatMapsDrawPanelsSideBySide) {
+  // Three 2 x 2 panels, each with min_value in its lower-left cell; only the third has max_value,
+  // in its upper-right cell.
+  std::vector<HeatMap> panels;
+  const char* names[3] = {"point-to-point ICP", "point-to-plane ICP", "global + ICP"};
+  const int widths[3] = {300, 300, 400}, heights[3] = {300, 360, 300};
+  for (int i = 0; i < 3; ++i) {
+    HeatMap m = grid_map(2, 2, 0.5);
+    m.title = names[i];
+    m.annotate = i != 1;
+    m.values(0, 0) = 0;
+    m.width = widths[i];
+    m.height = heights[i];
+    panels.push_back(m);
+  }
+  panels[2].values(1, 1) = 1;
+  write_heatmaps(panels, "Convergence basin", dir_ / "basin");
+  const Image png(dir_ / "basin.png");
+  ASSERT_TRUE(png.ok());
+  EXPECT_EQ(png.width(), 1000);  // the panels' widths add up
+  EXPECT_EQ(png.height(), 360);  // the tallest panel
+
+  // With annotations the low cells have white text in them: count the purple around it.
+  const auto low = blobs(png, kLowEnd, 200);
+  const auto high = blobs(png, kHighEnd, 200);
+  ASSERT_EQ(low.size(), 3u);
+  ASSERT_EQ(high.size(), 1u);
+  // One low cell per panel, left to right, on one row; the third panel's grid is the widest.
+  EXPECT_LT(low[0].x1, png.width() / 3);
+  EXPECT_GT(low[2].x0, png.width() / 2);
+  EXPECT_NEAR(low[0].cy(), low[1].cy(), 2);
+  EXPECT_NEAR(low[1].cy(), low[2].cy(), 2);
+  EXPECT_GT(low[2].x1 - low[2].x0, low[0].x1 - low[0].x0 + 10);
+  // The high cell is the third panel's upper right: right of and above its low cell, in the grid
+  // left of the colour bar, and its pixel centre has the end colour.
+  EXPECT_GT(high[0].x0, low[2].x1);
+  EXPECT_LT(high[0].y1, low[2].y0);
+  EXPECT_LT(high[0].x1, png.width() - 50);
+  EXPECT_TRUE(near(png.at(high[0].cx(), high[0].y0 + 3), kHighEnd));
+}
+
 }  // namespace
 }  // namespace align3d::report

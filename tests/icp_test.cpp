@@ -39,7 +39,8 @@ PoseError pose_error(const Eigen::Isometry3d& estimate, const Eigen::Isometry3d&
   return {rad_to_deg(rotation_angle(d.linear())), d.translation().norm()};
 }
 
-// A bumpy sphere of radius 30 mm (synth::make_object_scene) seen whole, 8000 points, σ = 0.1 mm,
+// The bracket (synth::make_object_scene: an L-bracket with a boss and a dome, ~90 mm) seen whole,
+// 8000 points, σ = 0.1 mm,
 // 4 % uniform outliers in the scan, moved by 10° about a random axis (fixed seed) and (3, −2, 4)
 // mm. Model and scan are independent samplings (spacing ~1.3 mm), so even at the true pose a scan
 // point is ~0.5 mm from its nearest model point: point-to-point is biased by a fraction of that.
@@ -53,6 +54,7 @@ class IcpScene : public ::testing::Test {
     settings.rotation_axis = Eigen::Vector3d(x, y, z).normalized();
     settings.translation = {3, -2, 4};
     settings.overlap = 1.0;
+    settings.shape = "bracket";
     scene_ = new synth::Scene(synth::make_object_scene(settings));
     estimate_normals(scene_->model, NormalSettings{});
     estimate_normals(scene_->scan, NormalSettings{});
@@ -109,8 +111,10 @@ TEST_F(IcpScene, PointToPlaneRecoversTheTransformForwardAndInverse) {
   const PoseError ef = pose_error(forward.T_target_source, scene_->T_model_scan);
   EXPECT_LT(ef.rotation_deg, 0.05);
   EXPECT_LT(ef.translation, 0.02);
-  // Point-to-plane RMS at the solution is the noise (σ = 0.1 mm), ±10 %.
-  EXPECT_NEAR(forward.rms, 0.1, 0.01);
+  // Point-to-plane RMS at the solution: the noise (σ = 0.1 mm) plus the bracket's edges, where
+  // independently sampled points meet the neighbouring face's plane (measured 0.155).
+  EXPECT_GT(forward.rms, 0.09);
+  EXPECT_LT(forward.rms, 0.2);
 
   const IcpResult inverse =
       icp(scene_->model, scene_->scan, *scan_tree_, Eigen::Isometry3d::Identity(), s);

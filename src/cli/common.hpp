@@ -38,5 +38,7 @@ Command add_register(CLI::App& app, Streams io);
 Command add_synth(CLI::App& app, Streams io);
 Command add_rectify(CLI::App& app, Streams io);
 Command add_demo(CLI::App& app, Streams io);
+Command add_ppf_model(CLI::App& app, Streams io);
+Command add_evaluate(CLI::App& app, Streams io);
 
 }  // namespace align3d::cli

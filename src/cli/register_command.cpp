@@ -3,6 +3,8 @@
 #include <cmath>
 #include <iomanip>
 
+#include "align3d/coarse/global.hpp"
+#include "align3d/coarse/ppf.hpp"
 #include "align3d/error.hpp"
 #include "align3d/io/matrix_io.hpp"
 #include "align3d/io/point_cloud_io.hpp"
@@ -22,7 +24,45 @@ struct RegisterOptions {
   std::string output, report, ground_truth;
   int normal_k = 20;
   int threads = 0;
+  std::string global = "fpfh";
+  std::string ppf_model;
+  double voxel = 0;
+  std::uint64_t seed = 1;
 };
+
+nlohmann::json global_json(const GlobalResult& g) {
+  nlohmann::json j = {{"method", to_string(g.method)},
+                      {"success", g.success},
+                      {"time_ms", g.time_ms},
+                      {"score", g.score},
+                      {"overlap", g.overlap},
+                      {"candidates", g.candidates},
+                      {"voxel", g.voxel},
+                      {"transformation", to_json(g.T_target_source)},
+                      {"ambiguous", g.ambiguous}};
+  if (g.ambiguous) {
+    j["second_transformation"] = to_json(g.second_T);
+    j["second_score"] = g.second_score;
+  }
+  if (!g.message.empty()) j["message"] = g.message;
+  return j;
+}
+
+// The coarse stage of --init global: a saved PPF model, or a method run on SOURCE and TARGET.
+GlobalResult run_global(const RegisterOptions& o, const PointCloud& source, const PointCloud& target) {
+  GlobalSettings gs;
+  gs.method = o.global == "ppf" ? GlobalMethod::kPpf : GlobalMethod::kFpfh;
+  gs.voxel = o.voxel;
+  gs.seed = o.seed;
+  gs.threads = o.threads;
+  if (o.ppf_model.empty()) return global_register(source, target, gs);
+  const PpfModel model = load_ppf_model(o.ppf_model);
+  const auto start = std::chrono::steady_clock::now();
+  GlobalResult g = ppf_match(model, source, gs);
+  g.method = GlobalMethod::kPpf;
+  g.time_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  return g;
+}
 
 nlohmann::json registration_json(const RegistrationResult& r, const RegisterOptions& o,
                                  std::size_t source_points, std::size_t target_points) {
@@ -59,8 +99,11 @@ int run_register(const RegisterOptions& o, Streams io) {
   const auto start_read = std::chrono::steady_clock::now();
   const PointCloud source = load_cloud(o.source, io.err);
   const PointCloud target = load_cloud(o.target, io.err);
-  const Eigen::Isometry3d init =
-      o.init == "identity" ? Eigen::Isometry3d::Identity() : io::read_matrix(o.init);
+  const bool global = o.init == "global";
+  if (!o.ppf_model.empty() && !(global && o.global == "ppf"))
+    throw UsageError("--ppf-model needs --init global --global ppf");
+  Eigen::Isometry3d init = o.init == "identity" || global ? Eigen::Isometry3d::Identity()
+                                                         : io::read_matrix(o.init);
   std::optional<Eigen::Isometry3d> truth;
   if (!o.ground_truth.empty()) truth = io::read_matrix(o.ground_truth);
 
@@ -79,13 +122,30 @@ int run_register(const RegisterOptions& o, Streams io) {
   settings.threads = o.threads;
 
   const auto start = std::chrono::steady_clock::now();
+  const auto ms = [](auto a, auto b) { return std::chrono::duration<double, std::milli>(b - a).count(); };
+  std::optional<GlobalResult> coarse;
+  if (global) {
+    coarse = run_global(o, source, target);
+    if (!coarse->success) {
+      // Honest failure: no ICP from a pose without support (it would end with a good-looking fit).
+      if (!o.report.empty())
+        write_json(o.report, {{"success", false}, {"converged", false}, {"global", global_json(*coarse)}},
+                   io.out);
+      throw Error(ExitCode::kNoSolution, o.source + ": global registration found no pose: " +
+                                             coarse->message);
+    }
+    if (coarse->ambiguous)
+      io.err << "align3d: warning: ambiguous pose (a distinct pose scores " << coarse->second_score
+             << " against " << coarse->score << "; a symmetric part?): see \"global\" in the report\n";
+    init = coarse->T_target_source;
+  }
   const RegistrationResult r = register_clouds(source, target, init, settings);
   const auto end = std::chrono::steady_clock::now();
-  const auto ms = [](auto a, auto b) { return std::chrono::duration<double, std::milli>(b - a).count(); };
 
   nlohmann::json report = registration_json(r, o, source.size(), target.size());
   report["timing_ms"] = {{"total", ms(start, end)}, {"read", ms(start_read, start)}};
   if (r.undefined_normals > 0) report["undefined_normals"] = r.undefined_normals;
+  if (coarse) report["global"] = global_json(*coarse);
   const Eigen::Isometry3d& T = r.icp.T_target_source;
   if (truth) {
     const Eigen::Matrix3d dR = T.linear().transpose() * truth->linear();
@@ -105,6 +165,10 @@ int run_register(const RegisterOptions& o, Streams io) {
     out << "  converged: " << (r.icp.converged ? "yes" : "no") << " (" << to_string(r.icp.stop_reason)
         << ") after " << r.total_iterations << " iterations, " << std::setprecision(1)
         << report["timing_ms"]["total"].get<double>() << " ms\n";
+    if (coarse)
+      out << "  global (" << to_string(coarse->method) << "): overlap " << coarse->overlap << ", "
+          << coarse->candidates << " candidates, " << std::setprecision(1) << coarse->time_ms
+          << " ms" << (coarse->ambiguous ? ", AMBIGUOUS" : "") << std::setprecision(6) << "\n";
     out << std::setprecision(6) << "  rms " << r.icp.rms << ", fitness " << r.icp.fitness << " ("
         << r.icp.correspondences << " pairs)\n";
     out << "  rotation " << report["rotation_deg"].get<double>() << " deg, translation ["
@@ -143,7 +207,22 @@ Command add_register(CLI::App& app, Streams io) {
   sub->add_option("--method", o->method, "Final ICP metric")
       ->check(CLI::IsMember({"point-to-point", "point-to-plane"}))
       ->capture_default_str();
-  sub->add_option("--init", o->init, "Initial pose: identity, or a file with a 4x4 matrix (4 rows of 4)")
+  sub->add_option("--init", o->init,
+                  "Initial pose: identity, global (coarse registration first: any starting pose), "
+                  "or a file with a 4x4 matrix (4 rows of 4)")
+      ->capture_default_str();
+  sub->add_option("--global", o->global,
+                  "Coarse method for --init global: fpfh (descriptors + RANSAC) or ppf (point pair "
+                  "features, model-to-scene)")
+      ->check(CLI::IsMember({"fpfh", "ppf"}))
+      ->capture_default_str();
+  sub->add_option("--ppf-model", o->ppf_model,
+                  "A model description saved by `align3d ppf-model` (with --global ppf)");
+  sub->add_option("--voxel", o->voxel,
+                  "Voxel size of the coarse stage (data units); 0: the target's diagonal / 50")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  sub->add_option("--seed", o->seed, "Seed of the coarse stage (same seed, same pose)")
       ->capture_default_str();
   sub->add_option("--reject", o->reject,
                   "Correspondence rejection: auto (robust schedule scaled to the data), "

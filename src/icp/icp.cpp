@@ -163,6 +163,18 @@ IcpResult icp(const PointCloud& source, const PointCloud& target, const KdTree& 
     result.T_target_source.linear() = nearest_rotation(result.T_target_source.linear());
     ++result.iterations;
 
+    // A state seen in the last 4 iterations again: the loop is periodic (termination.hpp).
+    bool cycle = false;
+    const std::size_t seen = result.history.size() - 1;
+    for (std::size_t back = 2; back <= 4 && back <= seen && !cycle; ++back) {
+      const IterationRecord& then = result.history[seen - back];
+      cycle = then.kept == step.kept && std::abs(then.rms - step.rms) <= 1e-12 * step.rms;
+    }
+    if (cycle) {
+      result.stop_reason = StopReason::kCycle;
+      stopped = true;
+      break;
+    }
     const double rms_tolerance =
         term.rms_change * (term.rms_change_relative ? previous_rms : 1.0);
     if (std::abs(step.rms - previous_rms) < rms_tolerance) {

@@ -68,7 +68,8 @@ struct SphereCap : Primitive {  // the part of a sphere above z = z_cut
   double radius, z_cut;
   SphereCap(Eigen::Vector3d c, double r, double zc) : centre(c), radius(r), z_cut(zc) {}
   double area() const override {  // Archimedes: 2πR·h, uniform in height
-    return 2 * 3.14159265358979323846 * radius * (centre.z() + radius - z_cut);
+    return 2 * 3.14159265358979323846 * radius *
+           (centre.z() + radius - std::max(z_cut, centre.z() - radius));
   }
   Eigen::Vector3d sample(Random& rng) const override {
     const double z = rng.uniform(std::max(z_cut, centre.z() - radius), centre.z() + radius);
@@ -240,10 +241,10 @@ Scene make_object_scene(const ObjectSettings& s) {
     parts.push_back(std::make_unique<Box>(Eigen::Vector3d(28, -25, 0), Eigen::Vector3d(40, 25, 55)));
     parts.push_back(std::make_unique<Cylinder>(Eigen::Vector2d(-18, 8), 9, 0, 24));
     parts.push_back(std::make_unique<SphereCap>(Eigen::Vector3d(0, -10, 2), 11, 10));
-  } else if (s.shape == "bumpy-sphere") {  // a sphere carrying four domes and a post
+  } else if (s.shape == "bumpy-sphere") {  // a sphere carrying four large domes and a post
     parts.push_back(std::make_unique<SphereCap>(Eigen::Vector3d(0, 0, 0), 30, -30));
     const Eigen::Vector3d bumps[4] = {{26, 0, 12}, {-8, 24, 14}, {-12, -20, 18}, {5, 5, 29}};
-    for (const auto& b : bumps) parts.push_back(std::make_unique<SphereCap>(b, 9, -1e9));
+    for (const auto& b : bumps) parts.push_back(std::make_unique<SphereCap>(b, 12, -1e9));
     parts.push_back(std::make_unique<Cylinder>(Eigen::Vector2d(12, -12), 5, 0, 42));
   } else {
     throw std::invalid_argument("unknown object shape '" + s.shape + "' (bracket, bumpy-sphere)");

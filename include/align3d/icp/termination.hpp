@@ -20,6 +20,9 @@ struct TerminationSettings {
 enum class StopReason {
   kRmsChange,               // converged: RMS settled
   kTransformChange,         // converged: the update became negligible
+  kCycle,                   // converged: the loop repeats a state of the last 4 iterations exactly
+                            // (same RMS to 1e-12 and same number of pairs): discrete
+                            // correspondences flipping back and forth, no further progress
   kMaxIterations,           // not converged: iteration cap
   kTooFewCorrespondences,   // not converged: fewer pairs than the metric needs
 };
@@ -28,6 +31,7 @@ inline const char* to_string(StopReason r) {
   switch (r) {
     case StopReason::kRmsChange: return "rms_change";
     case StopReason::kTransformChange: return "transform_change";
+    case StopReason::kCycle: return "cycle";
     case StopReason::kMaxIterations: return "max_iterations";
     case StopReason::kTooFewCorrespondences: return "too_few_correspondences";
   }
@@ -35,7 +39,8 @@ inline const char* to_string(StopReason r) {
 }
 
 inline bool is_convergence(StopReason r) {
-  return r == StopReason::kRmsChange || r == StopReason::kTransformChange;
+  return r == StopReason::kRmsChange || r == StopReason::kTransformChange ||
+         r == StopReason::kCycle;
 }
 
 }  // namespace align3d

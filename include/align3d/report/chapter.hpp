@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "align3d/coarse/global.hpp"
 #include "align3d/plane/rectify.hpp"
 #include "align3d/registration.hpp"
 
@@ -42,6 +43,10 @@ struct ChapterResults {
   IcpExperiment p2p_bad;      // 39.3: point-to-point from an extra 40° about Z
   IcpExperiment p2plane;      // 39.4: point-to-plane from the identity
   IcpExperiment robust;       // beyond the chapter: `align3d register` defaults from the identity
+  // Beyond the chapter, its remedy (39.3): bad initial value, then global registration (fpfh) and
+  // point-to-plane ICP with the chapter's settings.
+  IcpExperiment global;
+  GlobalResult global_coarse;
   RectifyResult plate;        // 39.5: plane correction of the tilted plate
   RectifyResult cluttered_plain, cluttered_robust;  // the cluttered plate, LSQ vs RANSAC + LSQ
   // Angle between each fit's normal and the true one (NaN when the truth is unknown).
@@ -56,7 +61,8 @@ ChapterResults run_chapter_experiments(const ChapterScene& scene, int threads = 
 // The comparison table (markdown): experiment | quantity | chapter | ours.
 std::string chapter_table(const ChapterResults& results);
 
-// Writes table.md, results.json, fig39_1..fig39_5 (.svg and .png) and report.html into `outdir`.
+// Writes table.md, results.json, fig39_1..fig39_6 (.svg and .png; 39.6 is the global remedy) and
+// report.html into `outdir`.
 void write_chapter_report(const ChapterScene& scene, const ChapterResults& results,
                           const std::filesystem::path& outdir);
 

@@ -1,0 +1,82 @@
+// Point pair features (Drost et al. 2010, "Model globally, match locally") for model-to-scene
+// matching (coarse/global.hpp describes the contract).
+//
+// For two oriented points (p1, n1), (p2, n2) with d = p2 − p1 the feature is
+//   F = (‖d‖, ∠(n1, d), ∠(n2, d), ∠(n1, n2)),
+// quantised with the voxel as distance step and 12° angle steps (30 bins). The model description is
+// a table from quantised F to every model pair (m_r, m_i) having it, stored as the reference point
+// r and the angle α_m that turns m_i about n_r into a fixed half-plane once (m_r, n_r) is moved to
+// the origin and the x axis (Drost, section 3.3). Each scene reference point s_r votes over (model
+// reference point, α = α_m − α_s); a peak gives the pose
+//   T_model_scene = T_m⁻¹ · R_x(α_s − α_m) · T_s       (T_m, T_s: the moves of m_r, s_r onto x).
+// Every 5th scene point is a reference; its 3 best cells are pose candidates. Candidates are
+// clustered (rotation < 12°, moved scene centroid < 2 voxels; Drost, section 3.5), the 10 clusters
+// with most votes are refined by point-to-point ICP on the downsampled clouds, and the winner is
+// the one that lays most scene points onto the model surface (within 1.5 voxels, point-to-plane
+// distance < 0.25 voxel, normals within 20°): this "fit" separates a plane slid over a plane from
+// the true pose far better than overlap_fraction. Ambiguity compares the same fit: a distinct
+// refined pose (coarse/global.hpp) with fit >= ambiguity_ratio × the winner's sets `ambiguous`.
+// `overlap` and `success` follow the contract (overlap_fraction at 1.5 voxels >= min_overlap).
+//
+// Normal orientation: the angles depend on the normals' signs, so model and scene normals must be
+// oriented by the same rule, one that turns with the data: away from the cloud's centroid. Parts of
+// the surface whose side relative to the centroid differs between model and (partial) scene give
+// no votes, which costs support but not correctness.
+//
+// Stop features: a feature shared by very many model pairs (chiefly two points on one plane) tells
+// almost nothing about the pose and would dominate the voting time; such buckets are dropped when
+// the model is built (more than kMaxBucketFactor × the mean bucket size, see ppf.cpp).
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <vector>
+
+#include "align3d/coarse/global.hpp"
+
+namespace align3d {
+
+// The hashed model description: what build_ppf_model computes and save/load_ppf_model store.
+struct PpfModel {
+  double voxel = 0;     // downsampling voxel = distance quantisation step (data units)
+  double diameter = 0;  // largest pair distance (the bounding-box diagonal of `points`)
+  std::uint32_t angle_bins = 30;
+  PointCloud points;  // downsampled model with unit normals pointing away from its centroid
+  // The table in compressed-row form: keys sorted and unique; the pairs with feature keys[k] are
+  // entries [offsets[k], offsets[k + 1]) of `refs` (model reference point) and `alphas` (α_m,
+  // radians in [−π, π]). Entries of one key are ordered by (reference point, paired point).
+  std::vector<std::uint64_t> keys;
+  std::vector<std::uint32_t> offsets;
+  std::vector<std::uint32_t> refs;
+  std::vector<float> alphas;
+};
+
+// Downsamples `model` with `voxel` (> 0; enlarged until at most 1500 points remain, so the table
+// holds at most ~2.25 M pairs), estimates normals and builds the table. Throws DataError with
+// fewer than 10 points after downsampling or all points on a line; std::invalid_argument for a
+// voxel that is not positive.
+PpfModel build_ppf_model(const PointCloud& model, double voxel, int threads = 0);
+
+// Binary file, little-endian throughout (version 1):
+//   magic "A3DPPF\r\n" (8 bytes), u32 version = 1, u32 angle_bins, f64 voxel, f64 diameter,
+//   u64 point count P, u64 key count K, u64 entry count E               (header: 56 bytes)
+//   P × (3 f64 position, 3 f64 normal), K × u64 key, (K + 1) × u32 offset, E × (u32 ref, f32 α).
+// The writer goes through io::write_atomically (OutputError on failure). The loader checks the
+// header's counts against the file size before allocating, then every offset, reference and
+// value; any mismatch throws IoError naming the file and the byte offset.
+void save_ppf_model(const std::filesystem::path& path, const PpfModel& model);
+PpfModel load_ppf_model(const std::filesystem::path& path);
+
+// Matches `scene` (the source) against the model (the target): the result's T_target_source maps
+// the scene into the model's frame (model ≈ T·scene). The model's voxel is used for the scene
+// (settings.voxel is ignored; result.voxel reports it); score = votes of the winning pose
+// cluster, candidates = clusters verified. Same result, bit for bit, whatever settings.threads.
+// Throws DataError when the downsampled scene has fewer than 10 points or lies on a line.
+GlobalResult ppf_match(const PpfModel& model, const PointCloud& scene,
+                       const GlobalSettings& settings);
+
+// build_ppf_model(target, global_voxel(target, settings)) then ppf_match(model, source).
+GlobalResult ppf_register(const PointCloud& source, const PointCloud& target,
+                          const GlobalSettings& settings);
+
+}  // namespace align3d

@@ -1,0 +1,61 @@
+// Evaluation of registration from arbitrary starting poses (issue #4): success rates over seeded
+// random initial poses, and the convergence basin (success over a grid of initial rotation angle ×
+// translation magnitude, random axes and directions, as in Rusinkiewicz 2019's symmetric-ICP study).
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "align3d/point_cloud.hpp"
+
+namespace align3d::report {
+
+struct EvalScene {
+  std::string name;
+  PointCloud source, target;   // scan and model
+  Eigen::Isometry3d truth;     // target ≈ truth·source
+};
+
+// The chapter scene and two partial views of objects of our own (~60 % overlap, 5 % outliers).
+std::vector<EvalScene> evaluation_scenes();
+
+enum class EvalMethod { kPointToPoint, kPointToPlane, kGlobal };  // ICP alone (defaults) or fpfh + ICP
+const char* to_string(EvalMethod m);
+
+struct TrialResult {
+  bool success = false;  // rotation error < 1° and translation error < 0.5 % of the diagonal
+  double rotation_error_deg = 0, translation_error = 0, time_ms = 0;
+};
+
+// Moves the source by a rotation of `angle_deg` about `axis` and a translation `t`, registers it
+// back from the identity and scores it against the known truth.
+TrialResult run_trial(const EvalScene& scene, EvalMethod method, double angle_deg,
+                      const Eigen::Vector3d& axis, const Eigen::Vector3d& t, std::uint64_t seed);
+
+struct SuccessRow {
+  std::string scene;
+  EvalMethod method;
+  int trials = 0, successes = 0;
+  double median_time_ms = 0, worst_rotation_error_deg = 0;
+};
+
+// `trials` seeded random poses per scene: angle uniform in [0°, 180°], uniform random axis,
+// translation uniform in [0, ½ diagonal] in a uniform random direction.
+SuccessRow success_rate(const EvalScene& scene, EvalMethod method, int trials, std::uint64_t seed);
+
+struct Basin {
+  std::vector<double> angles_deg;          // columns
+  std::vector<double> translation_fractions;  // rows, fractions of the target's diagonal
+  int trials_per_cell = 0;
+  Eigen::MatrixXd success;                 // rows × columns, in [0, 1]
+};
+
+Basin convergence_basin(const EvalScene& scene, EvalMethod method, const std::vector<double>& angles_deg,
+                        const std::vector<double>& translation_fractions, int trials_per_cell,
+                        std::uint64_t seed);
+
+}  // namespace align3d::report

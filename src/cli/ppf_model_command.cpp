@@ -1,0 +1,38 @@
+// align3d ppf-model MODEL OUT: build the PPF model description once, for many scans.
+#include "align3d/coarse/ppf.hpp"
+#include "common.hpp"
+
+namespace align3d::cli {
+namespace {
+
+struct PpfModelOptions {
+  std::string model, out;
+  double voxel = 0;
+};
+
+}  // namespace
+
+Command add_ppf_model(CLI::App& app, Streams io) {
+  auto o = std::make_shared<PpfModelOptions>();
+  CLI::App* sub = app.add_subcommand(
+      "ppf-model",
+      "Build the point-pair-feature description of MODEL and save it to OUT, for\n"
+      "`align3d register SCAN MODEL --init global --global ppf --ppf-model OUT` on many scans.");
+  sub->add_option("MODEL", o->model, "Model cloud (the target of later registrations)")->required();
+  sub->add_option("OUT", o->out, "Output file for the model description")->required();
+  sub->add_option("--voxel", o->voxel, "Voxel size (data units); 0: the model's diagonal / 50")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  return {sub, [o, io] {
+            const PointCloud model = load_cloud(o->model, io.err);
+            GlobalSettings gs;
+            gs.voxel = o->voxel;
+            const PpfModel description = build_ppf_model(model, global_voxel(model, gs));
+            save_ppf_model(o->out, description);
+            io.out << "wrote " << o->out << " (PPF model of " << o->model << ", voxel "
+                   << global_voxel(model, gs) << ")\n";
+            return 0;
+          }};
+}
+
+}  // namespace align3d::cli

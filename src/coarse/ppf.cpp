@@ -1,0 +1,585 @@
+#include "align3d/coarse/ppf.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <limits>
+#include <numbers>
+#include <stdexcept>
+#include <string>
+
+#include "align3d/coarse/voxel.hpp"
+#include "align3d/error.hpp"
+#include "align3d/io/atomic_file.hpp"
+#include "align3d/kabsch.hpp"
+#include "align3d/kdtree.hpp"
+#include "align3d/normals.hpp"
+#include "align3d/parallel.hpp"
+#include "align3d/se3.hpp"
+
+namespace align3d {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+constexpr std::size_t kMinPoints = 10;
+constexpr std::size_t kMaxModelPoints = 1500;
+constexpr int kNormalNeighbours = 15;
+// A bucket with more pairs than this × the mean bucket size is a stop feature (header).
+constexpr double kMaxBucketFactor = 20;
+constexpr std::size_t kSceneReferenceStep = 5;  // every 5th scene point is a reference (Drost: 1/5)
+constexpr std::size_t kPeaksPerReference = 3;
+constexpr double kClusterRotationDeg = 12;
+constexpr double kClusterVoxels = 2;  // cluster / distinctness radius of the moved scene centroid
+constexpr std::size_t kVerifiedClusters = 10;
+constexpr int kRefineIterations = 20;  // per verified cluster
+constexpr int kFinalIterations = 40;   // more for the winner (a plane slides slowly)
+constexpr double kOverlapVoxels = 1.5;
+constexpr double kFitPlaneVoxels = 0.25;
+constexpr double kFitNormalDeg = 20;
+
+// Throws DataError unless `down` has enough points, not all on one line.
+void check_usable(const PointCloud& down, const char* what) {
+  if (down.size() < kMinPoints)
+    throw DataError(std::string("ppf: the ") + what + " has " + std::to_string(down.size()) +
+                    " points after downsampling; at least " + std::to_string(kMinPoints) +
+                    " are needed");
+  const Eigen::Vector3d c = centroid(down);
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (const auto& p : down.positions) cov.noalias() += (p - c) * (p - c).transpose();
+  const Eigen::Vector3d ev = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(cov).eigenvalues();
+  if (!(ev(1) > 1e-9 * ev(2)))
+    throw DataError(std::string("ppf: all points of the ") + what + " lie on a line");
+}
+
+// Voxel centroids with PCA normals turned away from the centroid (the header's orientation rule).
+PointCloud oriented_downsample(const PointCloud& cloud, double voxel, int threads,
+                               const char* what) {
+  PointCloud down = voxel_downsample(cloud, voxel);
+  down.normals.clear();
+  check_usable(down, what);
+  NormalSettings normal_settings;
+  normal_settings.k = kNormalNeighbours;
+  normal_settings.viewpoint = centroid(down);
+  normal_settings.threads = threads;
+  estimate_normals(down, normal_settings);  // toward the centroid ...
+  for (auto& n : down.normals) n = -n;      // ... so away from it
+  return down;
+}
+
+// Quantised feature F (header). Returns false for coincident points.
+bool feature_key(const Eigen::Vector3d& p1, const Eigen::Vector3d& n1, const Eigen::Vector3d& p2,
+                 const Eigen::Vector3d& n2, double voxel, std::uint32_t bins, std::uint64_t& key) {
+  Eigen::Vector3d d = p2 - p1;
+  const double distance = d.norm();
+  if (!(distance > 0)) return false;
+  d /= distance;
+  const double step = kPi / bins;
+  auto bin = [&](double cosine) {
+    const double angle = std::acos(std::clamp(cosine, -1.0, 1.0));
+    return std::min<std::uint64_t>(bins - 1, static_cast<std::uint64_t>(angle / step));
+  };
+  const auto distance_bin = static_cast<std::uint64_t>(distance / voxel);
+  key = ((distance_bin * bins + bin(n1.dot(d))) * bins + bin(n2.dot(d))) * bins + bin(n1.dot(n2));
+  return true;
+}
+
+// T_g: the rigid move taking (p, n) to the origin and the +x axis (Drost, section 3.3).
+Eigen::Isometry3d to_x_axis(const Eigen::Vector3d& p, const Eigen::Vector3d& n) {
+  // The shortest-arc rotation about n × x̂; for n = −x̂ a half turn about ŷ.
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  const Eigen::Vector3d axis = n.cross(Eigen::Vector3d::UnitX());
+  const double sin_angle = axis.norm(), cos_angle = n.x();
+  if (sin_angle > 1e-12)
+    T.linear() =
+        Eigen::AngleAxisd(std::atan2(sin_angle, cos_angle), axis / sin_angle).toRotationMatrix();
+  else if (cos_angle < 0)
+    T.linear() = Eigen::AngleAxisd(kPi, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  T.translation() = -(T.linear() * p);
+  return T;
+}
+
+// The angle α with R_x(α)·(T_g·p) in the half-plane {z = 0, y > 0}.
+double half_plane_angle(const Eigen::Isometry3d& T_g, const Eigen::Vector3d& p) {
+  const Eigen::Vector3d q = T_g * p;
+  return std::atan2(-q.z(), q.y());
+}
+
+struct Peak {
+  std::uint32_t votes = 0;
+  std::uint32_t cell = 0;  // model reference × angle_bins + α bin
+};
+
+struct Candidate {
+  Eigen::Isometry3d T;
+  double votes;
+};
+
+struct Cluster {
+  Eigen::Quaterniond q_first;  // the cluster's strongest pose, which new members are compared to
+  Eigen::Vector3d x_first;     // where that pose puts the scene centroid
+  Eigen::Vector4d q_sum = Eigen::Vector4d::Zero();  // vote-weighted, sign-aligned quaternions
+  Eigen::Vector3d x_sum = Eigen::Vector3d::Zero();
+  double votes = 0;
+};
+
+// Point-to-point ICP on the downsampled clouds (pairs closer than 2 voxels), about the target
+// centroid as kabsch.hpp advises. Deterministic: the sums go through parallel_reduce.
+Eigen::Isometry3d refine(const PointCloud& source, const PointCloud& target, const KdTree& tree,
+                         Eigen::Isometry3d T, double voxel, int iterations, int threads) {
+  const double sq_cutoff = (kClusterVoxels * voxel) * (kClusterVoxels * voxel);
+  const Eigen::Vector3d c = centroid(target);
+  for (int it = 0; it < iterations; ++it) {
+    const KabschAccumulator acc = parallel_reduce(
+        source.size(), threads, KabschAccumulator{},
+        [&](KabschAccumulator& a, std::size_t i) {
+          const Eigen::Vector3d p = T * source.positions[i];
+          Neighbor nb;
+          if (tree.nearest(p, nb, sq_cutoff)) a.add(p - c, target.positions[nb.index] - c);
+        },
+        [](KabschAccumulator& a, const KabschAccumulator& b) { a += b; });
+    if (acc.sum_w < 3) break;
+    const Eigen::Isometry3d D = solve_kabsch(acc);
+    T = Eigen::Translation3d(c) * D * Eigen::Translation3d(-c) * T;
+    if (rotation_angle(D.linear()) < 1e-7 && D.translation().norm() < 1e-7 * voxel) break;
+  }
+  return T;
+}
+
+// The share of `source` points that T lays onto the target surface: a target point within 1.5
+// voxels, point-to-plane distance below kFitPlaneVoxels and normals within kFitNormalDeg (up to
+// sign). Stricter than overlap_fraction, it tells a fit from a pose that merely lies among target
+// points (a plane slid over a plane, a flipped part).
+double fit_fraction(const PointCloud& source, const PointCloud& target, const KdTree& tree,
+                    const Eigen::Isometry3d& T, double voxel, int threads) {
+  const double sq_radius = (kOverlapVoxels * voxel) * (kOverlapVoxels * voxel);
+  const double max_plane = kFitPlaneVoxels * voxel;
+  const double min_cos = std::cos(deg_to_rad(kFitNormalDeg));
+  const std::size_t fitting = parallel_reduce(
+      source.size(), threads, std::size_t{0},
+      [&](std::size_t& count, std::size_t i) {
+        const Eigen::Vector3d p = T * source.positions[i];
+        Neighbor nb;
+        if (!tree.nearest(p, nb, sq_radius)) return;
+        const Eigen::Vector3d& n = target.normals[nb.index];
+        if (std::abs(n.dot(p - target.positions[nb.index])) < max_plane &&
+            std::abs(n.dot(T.linear() * source.normals[i])) > min_cos)
+          ++count;
+      },
+      [](std::size_t& a, std::size_t b) { a += b; });
+  return static_cast<double>(fitting) / static_cast<double>(source.size());
+}
+
+std::string percent(double share) {
+  const long tenths = std::lround(share * 1000);
+  return std::to_string(tenths / 10) + "." + std::to_string(tenths % 10) + " %";
+}
+
+// ---- binary format helpers (little-endian, independent of the host) ----
+
+constexpr char kMagic[8] = {'A', '3', 'D', 'P', 'P', 'F', '\r', '\n'};
+constexpr std::uint32_t kVersion = 1;
+constexpr std::uint64_t kHeaderBytes = 56;
+constexpr std::uint64_t kPointBytes = 48, kKeyBytes = 8, kOffsetBytes = 4, kEntryBytes = 8;
+
+void put_bytes(std::string& out, std::uint64_t value, int bytes) {
+  for (int b = 0; b < bytes; ++b) out.push_back(static_cast<char>((value >> (8 * b)) & 0xff));
+}
+void put_u32(std::string& out, std::uint32_t v) { put_bytes(out, v, 4); }
+void put_u64(std::string& out, std::uint64_t v) { put_bytes(out, v, 8); }
+void put_f32(std::string& out, float v) { put_bytes(out, std::bit_cast<std::uint32_t>(v), 4); }
+void put_f64(std::string& out, double v) { put_bytes(out, std::bit_cast<std::uint64_t>(v), 8); }
+
+std::uint64_t get_bytes(const unsigned char* p, int bytes) {
+  std::uint64_t v = 0;
+  for (int b = 0; b < bytes; ++b) v |= static_cast<std::uint64_t>(p[b]) << (8 * b);
+  return v;
+}
+std::uint32_t get_u32(const unsigned char* p) {
+  return static_cast<std::uint32_t>(get_bytes(p, 4));
+}
+std::uint64_t get_u64(const unsigned char* p) { return get_bytes(p, 8); }
+float get_f32(const unsigned char* p) { return std::bit_cast<float>(get_u32(p)); }
+double get_f64(const unsigned char* p) { return std::bit_cast<double>(get_u64(p)); }
+
+}  // namespace
+
+PpfModel build_ppf_model(const PointCloud& model, double voxel, int threads) {
+  if (!(voxel > 0) || !std::isfinite(voxel))
+    throw std::invalid_argument("build_ppf_model: voxel size must be positive");
+  // Bound the table (N² pairs): enlarge the voxel until at most kMaxModelPoints remain.
+  std::size_t count = voxel_downsample(model, voxel).size();
+  while (count > kMaxModelPoints) {
+    voxel *= std::max(1.05, std::sqrt(static_cast<double>(count) / kMaxModelPoints));
+    count = voxel_downsample(model, voxel).size();
+  }
+  PpfModel out;
+  out.voxel = voxel;
+  out.points = oriented_downsample(model, voxel, threads, "model");
+  out.diameter = bounding_box_diagonal(out.points);
+  const std::size_t n = out.points.size();
+  const auto& pos = out.points.positions;
+  const auto& nrm = out.points.normals;
+
+  // Every ordered pair (all lie within the bounding-box diagonal), built per reference point in
+  // parallel, then joined in reference order and stably sorted by key: the order is fixed.
+  struct Item {
+    std::uint64_t key;
+    std::uint32_t ref;
+    float alpha;
+  };
+  std::vector<std::vector<Item>> rows(n);
+  parallel_for(n, threads, [&](std::size_t r) {
+    const Eigen::Isometry3d T_g = to_x_axis(pos[r], nrm[r]);
+    rows[r].reserve(n - 1);
+    for (std::size_t i = 0; i < n; ++i) {
+      std::uint64_t key;
+      if (i == r || !feature_key(pos[r], nrm[r], pos[i], nrm[i], voxel, out.angle_bins, key))
+        continue;
+      rows[r].push_back(
+          {key, static_cast<std::uint32_t>(r), static_cast<float>(half_plane_angle(T_g, pos[i]))});
+    }
+  });
+  std::vector<Item> items;
+  items.reserve(n * (n - 1));
+  for (auto& row : rows) {
+    items.insert(items.end(), row.begin(), row.end());
+    std::vector<Item>().swap(row);
+  }
+  std::stable_sort(items.begin(), items.end(),
+                   [](const Item& a, const Item& b) { return a.key < b.key; });
+
+  std::size_t unique_keys = 0;
+  for (std::size_t i = 0; i < items.size(); ++i)
+    unique_keys += (i == 0 || items[i].key != items[i - 1].key) ? 1 : 0;
+  const double mean_bucket =
+      unique_keys ? static_cast<double>(items.size()) / static_cast<double>(unique_keys) : 0;
+  const double max_bucket = kMaxBucketFactor * mean_bucket;
+  out.offsets.push_back(0);
+  for (std::size_t begin = 0; begin < items.size();) {
+    std::size_t end = begin;
+    while (end < items.size() && items[end].key == items[begin].key) ++end;
+    if (static_cast<double>(end - begin) <= max_bucket) {  // else a stop feature (header)
+      out.keys.push_back(items[begin].key);
+      for (std::size_t e = begin; e < end; ++e) {
+        out.refs.push_back(items[e].ref);
+        out.alphas.push_back(items[e].alpha);
+      }
+      out.offsets.push_back(static_cast<std::uint32_t>(out.refs.size()));
+    }
+    begin = end;
+  }
+  return out;
+}
+
+GlobalResult ppf_match(const PpfModel& model, const PointCloud& scene,
+                       const GlobalSettings& settings) {
+  const auto start = std::chrono::steady_clock::now();
+  if (!(model.voxel > 0) || model.angle_bins == 0 || model.points.size() < kMinPoints ||
+      !model.points.has_normals() || model.offsets.size() != model.keys.size() + 1)
+    throw std::invalid_argument("ppf_match: the model is empty or inconsistent");
+  const int threads = settings.threads;
+  const double voxel = model.voxel;
+  const std::uint32_t bins = model.angle_bins;
+  GlobalResult result;
+  result.method = GlobalMethod::kPpf;
+  result.voxel = voxel;
+  const PointCloud down = oriented_downsample(scene, voxel, threads, "scene");
+  const KdTree scene_tree(down.positions);
+  const Eigen::Vector3d scene_centre = centroid(down);
+
+  // Voting (Drost, section 3.4): one accumulator over (model reference, α bin) per scene
+  // reference; its kPeaksPerReference highest cells become pose candidates.
+  const std::size_t references = (down.size() + kSceneReferenceStep - 1) / kSceneReferenceStep;
+  const std::size_t cells = model.points.size() * bins;
+  const double alpha_step = 2 * kPi / bins;
+  const double sq_diameter = model.diameter * model.diameter;
+  std::vector<std::array<Peak, kPeaksPerReference>> peaks(references);
+  parallel_for(references, threads, [&](std::size_t j) {
+    thread_local std::vector<std::uint32_t> votes;
+    thread_local std::vector<Neighbor> nb;
+    votes.assign(cells, 0);
+    const std::size_t r = j * kSceneReferenceStep;
+    const Eigen::Vector3d& p_r = down.positions[r];
+    const Eigen::Vector3d& n_r = down.normals[r];
+    const Eigen::Isometry3d T_s = to_x_axis(p_r, n_r);
+    scene_tree.radius(p_r, sq_diameter, nb);
+    for (const Neighbor& m : nb) {
+      std::uint64_t key;
+      if (m.index == r ||
+          !feature_key(p_r, n_r, down.positions[m.index], down.normals[m.index], voxel, bins, key))
+        continue;
+      const auto it = std::lower_bound(model.keys.begin(), model.keys.end(), key);
+      if (it == model.keys.end() || *it != key) continue;
+      const auto k = static_cast<std::size_t>(it - model.keys.begin());
+      const double alpha_s = half_plane_angle(T_s, down.positions[m.index]);
+      for (std::uint32_t e = model.offsets[k]; e < model.offsets[k + 1]; ++e) {
+        double alpha = model.alphas[e] - alpha_s;  // α = α_m − α_s, wrapped to [−π, π)
+        if (alpha < -kPi) alpha += 2 * kPi;
+        if (alpha >= kPi) alpha -= 2 * kPi;
+        const auto b = std::min<std::uint32_t>(
+            bins - 1, static_cast<std::uint32_t>(std::max(0.0, (alpha + kPi) / alpha_step)));
+        ++votes[static_cast<std::size_t>(model.refs[e]) * bins + b];
+      }
+    }
+    auto& top = peaks[j];  // descending by votes; ties keep the lower cell
+    for (std::size_t c = 0; c < cells; ++c) {
+      if (votes[c] <= top.back().votes) continue;
+      std::size_t at = kPeaksPerReference - 1;
+      while (at > 0 && votes[c] > top[at - 1].votes) {
+        top[at] = top[at - 1];
+        --at;
+      }
+      top[at] = {votes[c], static_cast<std::uint32_t>(c)};
+    }
+  });
+
+  // Poses of the peaks: T_model_scene = T_m⁻¹ · R_x(α_s − α_m) · T_s, with α at the bin centre.
+  std::vector<Candidate> candidates;
+  for (std::size_t j = 0; j < references; ++j) {
+    const std::size_t r = j * kSceneReferenceStep;
+    const Eigen::Isometry3d T_s = to_x_axis(down.positions[r], down.normals[r]);
+    for (const Peak& peak : peaks[j]) {
+      if (peak.votes == 0) break;
+      const std::size_t m = peak.cell / bins;
+      const double alpha = -kPi + (peak.cell % bins + 0.5) * alpha_step;
+      const Eigen::Isometry3d T_m = to_x_axis(model.points.positions[m], model.points.normals[m]);
+      candidates.push_back(
+          {T_m.inverse() * Eigen::AngleAxisd(-alpha, Eigen::Vector3d::UnitX()) * T_s,
+           static_cast<double>(peak.votes)});
+    }
+  }
+  if (candidates.empty()) {
+    result.message = "ppf: no scene point pair matched a model feature";
+    result.time_ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    return result;
+  }
+  std::stable_sort(candidates.begin(), candidates.end(),
+                   [](const Candidate& a, const Candidate& b) { return a.votes > b.votes; });
+
+  // Pose clustering (Drost, section 3.5): greedy, strongest first; a pose joins the first cluster
+  // whose strongest pose is within 12° and moves the scene centroid to within 2 voxels of it.
+  // Comparing moved centroids, not raw translations, keeps the test independent of the frame.
+  const double cos_half_rotation = std::cos(deg_to_rad(kClusterRotationDeg) / 2);
+  const double cluster_radius = kClusterVoxels * voxel;
+  std::vector<Cluster> clusters;
+  for (const Candidate& cand : candidates) {
+    const Eigen::Quaterniond q(cand.T.linear());
+    const Eigen::Vector3d x = cand.T * scene_centre;
+    Cluster* home = nullptr;
+    for (Cluster& cl : clusters)
+      if ((cl.x_first - x).norm() < cluster_radius &&
+          std::abs(cl.q_first.dot(q)) >= cos_half_rotation) {
+        home = &cl;
+        break;
+      }
+    if (!home) {
+      clusters.push_back({q, x});
+      home = &clusters.back();
+    }
+    const double sign = home->q_first.dot(q) < 0 ? -1.0 : 1.0;
+    home->q_sum += sign * cand.votes * q.coeffs();
+    home->x_sum += cand.votes * x;
+    home->votes += cand.votes;
+  }
+  std::stable_sort(clusters.begin(), clusters.end(),
+                   [](const Cluster& a, const Cluster& b) { return a.votes > b.votes; });
+
+  // Verification: refine the strongest clusters and keep the pose that lays most of the scene onto
+  // the model surface (fit_fraction; overlap_fraction alone barely separates a plane slid over a
+  // plane from the true pose).
+  const KdTree model_tree(model.points.positions);
+  const std::size_t verified = std::min(kVerifiedClusters, clusters.size());
+  std::vector<Eigen::Isometry3d> poses(verified);
+  std::vector<double> fits(verified);
+  std::size_t best = 0;
+  for (std::size_t c = 0; c < verified; ++c) {
+    const Cluster& cl = clusters[c];
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.linear() = Eigen::Quaterniond(Eigen::Vector4d(cl.q_sum.normalized())).toRotationMatrix();
+    T.translation() = cl.x_sum / cl.votes - T.linear() * scene_centre;
+    poses[c] = refine(down, model.points, model_tree, T, voxel, kRefineIterations, threads);
+    fits[c] = fit_fraction(down, model.points, model_tree, poses[c], voxel, threads);
+    if (fits[c] > fits[best]) best = c;
+  }
+  poses[best] =
+      refine(down, model.points, model_tree, poses[best], voxel, kFinalIterations, threads);
+  fits[best] = fit_fraction(down, model.points, model_tree, poses[best], voxel, threads);
+  result.T_target_source = poses[best];
+  result.overlap = overlap_fraction(down, model_tree, poses[best], kOverlapVoxels * voxel, threads);
+  result.score = clusters[best].votes;
+  result.candidates = verified;
+  result.success = result.overlap >= settings.min_overlap;
+  if (!result.success)
+    result.message = "ppf: the best pose brings only " + percent(result.overlap) +
+                     " of the scene within 1.5 voxels of the model (minimum " +
+                     percent(settings.min_overlap) + ")";
+
+  // Ambiguity (coarse/global.hpp): the best-fitting distinct runner-up, compared by fit_fraction.
+  std::size_t second = verified;
+  for (std::size_t c = 0; c < verified; ++c) {
+    if (c == best) continue;
+    const double rotation =
+        rad_to_deg(rotation_angle(poses[c].linear().transpose() * poses[best].linear()));
+    const double shift = (poses[c] * scene_centre - poses[best] * scene_centre).norm();
+    const bool distinct = rotation > settings.distinct_rotation_deg || shift > cluster_radius;
+    if (distinct && (second == verified || fits[c] > fits[second])) second = c;
+  }
+  if (result.success && second < verified &&
+      fits[second] >= settings.ambiguity_ratio * fits[best]) {
+    result.ambiguous = true;
+    result.second_T = poses[second];
+    result.second_score = clusters[second].votes;
+    const std::string note = "ppf: ambiguous: a distinct pose fits " + percent(fits[second]) +
+                             " of the scene to the model surface against " + percent(fits[best]) +
+                             " (a symmetric part?)";
+    result.message = result.message.empty() ? note : result.message + "; " + note;
+  }
+  result.time_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  return result;
+}
+
+GlobalResult ppf_register(const PointCloud& source, const PointCloud& target,
+                          const GlobalSettings& settings) {
+  const auto start = std::chrono::steady_clock::now();
+  const PpfModel model = build_ppf_model(target, global_voxel(target, settings), settings.threads);
+  GlobalResult result = ppf_match(model, source, settings);
+  result.time_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  return result;
+}
+
+void save_ppf_model(const std::filesystem::path& path, const PpfModel& model) {
+  const std::size_t p = model.points.size();
+  if (!model.points.has_normals() || model.offsets.size() != model.keys.size() + 1 ||
+      model.refs.size() != model.alphas.size() || model.offsets.back() != model.refs.size())
+    throw std::invalid_argument("save_ppf_model: the model is inconsistent");
+  std::string bytes;
+  bytes.reserve(kHeaderBytes + p * kPointBytes + model.keys.size() * (kKeyBytes + kOffsetBytes) +
+                model.refs.size() * kEntryBytes + kOffsetBytes);
+  bytes.append(kMagic, sizeof kMagic);
+  put_u32(bytes, kVersion);
+  put_u32(bytes, model.angle_bins);
+  put_f64(bytes, model.voxel);
+  put_f64(bytes, model.diameter);
+  put_u64(bytes, p);
+  put_u64(bytes, model.keys.size());
+  put_u64(bytes, model.refs.size());
+  for (std::size_t i = 0; i < p; ++i) {
+    for (int a = 0; a < 3; ++a) put_f64(bytes, model.points.positions[i](a));
+    for (int a = 0; a < 3; ++a) put_f64(bytes, model.points.normals[i](a));
+  }
+  for (std::uint64_t key : model.keys) put_u64(bytes, key);
+  for (std::uint32_t offset : model.offsets) put_u32(bytes, offset);
+  for (std::size_t e = 0; e < model.refs.size(); ++e) {
+    put_u32(bytes, model.refs[e]);
+    put_f32(bytes, model.alphas[e]);
+  }
+  io::write_atomically(path, [&](std::ostream& out) {
+    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  });
+}
+
+PpfModel load_ppf_model(const std::filesystem::path& path) {
+  auto error = [&](const std::string& what, std::uint64_t offset) {
+    return IoError(path.string() + ": " + what + " at byte offset " + std::to_string(offset));
+  };
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw IoError(path.string() + ": cannot open the PPF model file");
+  in.seekg(0, std::ios::end);
+  const std::streamoff end = in.tellg();
+  if (end < 0) throw IoError(path.string() + ": cannot determine the file size");
+  const auto size = static_cast<std::uint64_t>(end);
+  in.seekg(0, std::ios::beg);
+  unsigned char header[kHeaderBytes] = {};
+  const auto head = static_cast<std::size_t>(std::min(size, kHeaderBytes));
+  if (!in.read(reinterpret_cast<char*>(header), static_cast<std::streamsize>(head)))
+    throw error("read failed", 0);
+  // The magic first (over what the file has of it), so a file of another type is named as such.
+  if (std::memcmp(header, kMagic, std::min(head, sizeof kMagic)) != 0 || head < sizeof kMagic)
+    throw error("not an align3d PPF model (wrong magic)", 0);
+  if (size < kHeaderBytes)
+    throw error("truncated header (" + std::to_string(size) + " bytes)", size);
+  if (const std::uint32_t version = get_u32(header + 8); version != kVersion)
+    throw error("unsupported version " + std::to_string(version), 8);
+  PpfModel model;
+  model.angle_bins = get_u32(header + 12);
+  if (model.angle_bins < 1 || model.angle_bins > 360)
+    throw error("angle bin count " + std::to_string(model.angle_bins) + " out of range", 12);
+  model.voxel = get_f64(header + 16);
+  if (!(model.voxel > 0) || !std::isfinite(model.voxel)) throw error("voxel not positive", 16);
+  model.diameter = get_f64(header + 24);
+  if (!(model.diameter >= 0) || !std::isfinite(model.diameter))
+    throw error("diameter not finite", 24);
+  const std::uint64_t points = get_u64(header + 32), keys = get_u64(header + 40),
+                      entries = get_u64(header + 48);
+  // Sizes against the file before any allocation; each count is bounded first, so the sum
+  // cannot overflow.
+  const std::uint64_t body = size - kHeaderBytes;
+  if (points > body / kPointBytes || keys > body / (kKeyBytes + kOffsetBytes) ||
+      entries > body / kEntryBytes ||
+      kHeaderBytes + points * kPointBytes + keys * (kKeyBytes + kOffsetBytes) + kOffsetBytes +
+              entries * kEntryBytes !=
+          size)
+    throw error("the header's counts (" + std::to_string(points) + " points, " +
+                    std::to_string(keys) + " keys, " + std::to_string(entries) +
+                    " entries) do not match the file size of " + std::to_string(size) + " bytes",
+                32);
+  if (points < kMinPoints) throw error("fewer than 10 model points", 32);
+  if (entries > std::numeric_limits<std::uint32_t>::max()) throw error("too many entries", 48);
+  std::vector<unsigned char> data(body);
+  if (!in.read(reinterpret_cast<char*>(data.data()), static_cast<std::streamsize>(body)))
+    throw error("read failed (file changed?)", kHeaderBytes);
+  const unsigned char* at = data.data();
+  auto offset = [&](const unsigned char* p) {
+    return kHeaderBytes + static_cast<std::uint64_t>(p - data.data());
+  };
+
+  model.points.positions.resize(points);
+  model.points.normals.resize(points);
+  for (std::uint64_t i = 0; i < points; ++i, at += kPointBytes) {
+    Eigen::Vector3d p, n;
+    for (int a = 0; a < 3; ++a) p(a) = get_f64(at + 8 * a), n(a) = get_f64(at + 24 + 8 * a);
+    if (!p.allFinite()) throw error("point " + std::to_string(i) + " is not finite", offset(at));
+    if (!n.allFinite() || std::abs(n.norm() - 1) > 1e-6)
+      throw error("normal " + std::to_string(i) + " is not a unit vector", offset(at + 24));
+    model.points.positions[i] = p;
+    model.points.normals[i] = n;
+  }
+  model.keys.resize(keys);
+  for (std::uint64_t k = 0; k < keys; ++k, at += kKeyBytes) {
+    model.keys[k] = get_u64(at);
+    if (k > 0 && model.keys[k] <= model.keys[k - 1])
+      throw error("feature keys not strictly increasing", offset(at));
+  }
+  model.offsets.resize(keys + 1);
+  for (std::uint64_t k = 0; k <= keys; ++k, at += kOffsetBytes) {
+    model.offsets[k] = get_u32(at);
+    const bool ok = k == 0 ? model.offsets[k] == 0
+                           : model.offsets[k] > model.offsets[k - 1] &&
+                                 (k < keys || model.offsets[k] == entries);
+    if (!ok) throw error("bucket offset " + std::to_string(k) + " is inconsistent", offset(at));
+  }
+  if (keys == 0 && entries != 0) throw error("entries without keys", 48);
+  model.refs.resize(entries);
+  model.alphas.resize(entries);
+  for (std::uint64_t e = 0; e < entries; ++e, at += kEntryBytes) {
+    model.refs[e] = get_u32(at);
+    model.alphas[e] = get_f32(at + 4);
+    if (model.refs[e] >= points)
+      throw error("entry " + std::to_string(e) + " names point " + std::to_string(model.refs[e]) +
+                      " of " + std::to_string(points),
+                  offset(at));
+    if (!(std::abs(model.alphas[e]) <= kPi + 1e-5))
+      throw error("entry " + std::to_string(e) + " has an angle outside [-pi, pi]", offset(at + 4));
+  }
+  return model;
+}
+
+}  // namespace align3d

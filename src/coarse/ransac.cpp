@@ -1,0 +1,422 @@
+// FPFH + RANSAC (coarse/global.hpp). The steps follow Open3D's
+// RegistrationRANSACBasedOnFeatureMatching with its edge-length (0.9) and distance checkers, made
+// deterministic for any thread count: hypothesis k draws its sample from a counter-based stream
+// seeded by (seed, k), blocks of hypotheses are scored in parallel and merged in index order, and
+// the stopping rule is evaluated at block boundaries that do not depend on the thread count.
+// Departures from Open3D, each measured on the synthetic scenes (tests/ransac_test.cpp): isolated
+// points are dropped after downsampling (drop_isolated); normals are oriented by
+// orient_normals_consistently, which moves with the cloud (Open3D's sign does not, so its
+// features change under a large rotation); sliver samples are rejected; the winner is refined on
+// its inliers; and distinct runner-up poses are kept for the ambiguity report.
+#include "align3d/coarse/ransac.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <memory>
+#include <nanoflann.hpp>
+#include <string>
+#include <vector>
+
+#include "align3d/coarse/fpfh.hpp"
+#include "align3d/coarse/voxel.hpp"
+#include "align3d/error.hpp"
+#include "align3d/kabsch.hpp"
+#include "align3d/kdtree.hpp"
+#include "align3d/normals.hpp"
+#include "align3d/parallel.hpp"
+#include "align3d/registration.hpp"
+#include "align3d/se3.hpp"
+
+namespace align3d {
+namespace {
+
+constexpr double kFeatureRadius = 5.0;        // FPFH radius, voxels (Open3D's usual choice)
+constexpr double kInlierDistance = 1.5;       // inlier / distance-checker threshold, voxels
+constexpr double kEdgeRatio = 0.9;            // Open3D's CorrespondenceCheckerBasedOnEdgeLength
+constexpr double kDistinctTranslation = 2.0;  // voxels (global.hpp)
+constexpr int kNormalNeighbours = 20;
+constexpr double kSupportRadius = 2.0;  // isolated-point filter: radius in spacings (voxels) ...
+constexpr std::size_t kMinSupport = 3;  // ... and the fewest other points it must hold
+constexpr std::size_t kBlock = 4096;    // hypotheses per parallel block: few, cheap regions
+constexpr std::size_t kMaxPoses = 16;   // distinct poses remembered for the ambiguity report
+constexpr int kRefineRounds = 3;
+constexpr std::size_t kMinInliers = 9;  // 3 × the minimal sample
+constexpr double kTwinSupport = 0.5;    // ambiguity: own inliers of the runner-up / winner's
+
+// SplitMix64 (Steele, Lea and Flood 2014): a counter-based generator, the same on every platform.
+std::uint64_t splitmix64(std::uint64_t x) {
+  x += 0x9e3779b97f4a7c15ULL;
+  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
+  return x ^ (x >> 31);
+}
+
+// The stream of hypothesis k: independent of which thread evaluates it.
+class HypothesisStream {
+ public:
+  HypothesisStream(std::uint64_t seed, std::uint64_t k) : state_(seed ^ splitmix64(k)) {}
+  std::size_t below(std::size_t n) {
+    state_ += 0x9e3779b97f4a7c15ULL;
+    return static_cast<std::size_t>(splitmix64(state_) % n);
+  }
+
+ private:
+  std::uint64_t state_;
+};
+
+struct Prepared {
+  PointCloud all;   // downsampled
+  PointCloud down;  // downsampled, isolated points dropped: what descriptors are computed on
+  std::unique_ptr<KdTree> tree;
+  std::vector<FpfhDescriptor> features;
+};
+
+// Drops points with fewer than kMinSupport others within kSupportRadius spacings (the spacing: the
+// voxel, or the median neighbour distance when the data are sparser). Downsampling keeps an
+// isolated outlier as one point while it thins the surfaces, so outliers gain weight; inside a
+// descriptor's radius they carry random normals into every histogram around them.
+PointCloud drop_isolated(const PointCloud& down, double voxel, int threads) {
+  const KdTree tree(down.positions);
+  const double radius = kSupportRadius * std::max(voxel, point_spacing(down, tree));
+  std::vector<unsigned char> keep(down.size());
+  parallel_for(down.size(), threads, [&](std::size_t i) {
+    thread_local std::vector<Neighbor> nb;
+    tree.radius(down.positions[i], radius * radius, nb);
+    keep[i] = nb.size() >= kMinSupport + 1;
+  });
+  PointCloud out;
+  for (std::size_t i = 0; i < down.size(); ++i)
+    if (keep[i]) out.positions.push_back(down.positions[i]);
+  return out;
+}
+
+Prepared prepare(const PointCloud& cloud, double voxel, const char* what, int threads) {
+  Prepared out;
+  out.all = voxel_downsample(cloud, voxel);
+  out.down = drop_isolated(out.all, voxel, threads);
+  if (out.down.size() < 10)
+    throw DataError(std::string(what) + ": " + std::to_string(out.down.size()) +
+                    " points after downsampling to voxel " + std::to_string(voxel) +
+                    " and dropping isolated points" + "; FPFH registration needs at least 10");
+  check_registrable(out.down, std::string(what) + " (downsampled)");
+  out.tree = std::make_unique<KdTree>(out.down.positions);
+  NormalSettings ns;
+  ns.k = kNormalNeighbours;
+  ns.threads = threads;
+  estimate_normals(out.down, *out.tree, ns);
+  const FpfhSettings fs{kFeatureRadius * voxel};
+  const Neighbourhoods nb =
+      radius_neighbourhoods(out.down, *out.tree, fs.radius, fs.max_neighbors, threads);
+  orient_normals_consistently(out.down, nb, threads);
+  out.features = compute_fpfh(out.down, nb, threads);
+  return out;
+}
+
+// Nearest descriptor in 33-D (nanoflann over the float descriptors).
+class FeatureIndex {
+ public:
+  explicit FeatureIndex(const std::vector<FpfhDescriptor>& features)
+      : adaptor_{features}, tree_(33, adaptor_, nanoflann::KDTreeSingleIndexAdaptorParams(10)) {
+    tree_.buildIndex();
+  }
+  std::uint32_t nearest(const FpfhDescriptor& query) const {
+    std::uint32_t index = 0;
+    float sq_distance = 0;
+    tree_.knnSearch(query.data(), 1, &index, &sq_distance);
+    return index;
+  }
+
+ private:
+  struct Adaptor {
+    const std::vector<FpfhDescriptor>& features;
+    std::size_t kdtree_get_point_count() const { return features.size(); }
+    float kdtree_get_pt(std::size_t i, std::size_t dim) const { return features[i](dim); }
+    template <class Box>
+    bool kdtree_get_bbox(Box&) const {
+      return false;
+    }
+  };
+  using Tree =
+      nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, Adaptor, float>,
+                                          Adaptor, 33, std::uint32_t>;
+  Adaptor adaptor_;
+  Tree tree_;
+};
+
+// Paired positions, source (p) and target (q), stored contiguously for the inlier count.
+struct Correspondences {
+  std::vector<Eigen::Vector3d> p, q;
+  std::size_t size() const { return p.size(); }
+};
+
+Correspondences match(const Prepared& source, const Prepared& target, bool mutual, int threads) {
+  const FeatureIndex target_index(target.features);
+  std::vector<std::uint32_t> forward(source.features.size());
+  parallel_for(forward.size(), threads,
+               [&](std::size_t i) { forward[i] = target_index.nearest(source.features[i]); });
+  std::vector<std::uint32_t> backward;
+  if (mutual) {
+    const FeatureIndex source_index(source.features);
+    backward.resize(target.features.size());
+    parallel_for(backward.size(), threads,
+                 [&](std::size_t j) { backward[j] = source_index.nearest(target.features[j]); });
+  }
+  Correspondences c;
+  for (std::size_t i = 0; i < forward.size(); ++i) {
+    if (mutual && backward[forward[i]] != i) continue;
+    c.p.push_back(source.down.positions[i]);
+    c.q.push_back(target.down.positions[forward[i]]);
+  }
+  return c;
+}
+
+std::size_t count_inliers(const Correspondences& c, const Eigen::Isometry3d& T, double sq_radius) {
+  const Eigen::Matrix3d R = T.linear();
+  const Eigen::Vector3d t = T.translation();
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < c.size(); ++i)
+    n += (R * c.p[i] + t - c.q[i]).squaredNorm() < sq_radius;
+  return n;
+}
+
+// Inliers of `T` that are not inliers of `other`.
+std::size_t count_exclusive(const Correspondences& c, const Eigen::Isometry3d& T,
+                            const Eigen::Isometry3d& other, double sq_radius) {
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < c.size(); ++i)
+    n += (T * c.p[i] - c.q[i]).squaredNorm() < sq_radius &&
+         (other * c.p[i] - c.q[i]).squaredNorm() >= sq_radius;
+  return n;
+}
+
+// Kabsch on the pairs within the radius, centred for conditioning (kabsch.hpp).
+Eigen::Isometry3d fit_inliers(const Correspondences& c, const Eigen::Isometry3d& T,
+                              double sq_radius, std::size_t& used) {
+  std::vector<Eigen::Vector3d> p, q;
+  for (std::size_t i = 0; i < c.size(); ++i) {
+    if ((T * c.p[i] - c.q[i]).squaredNorm() < sq_radius) {
+      p.push_back(c.p[i]);
+      q.push_back(c.q[i]);
+    }
+  }
+  used = p.size();
+  return used >= 3 ? kabsch(p, q) : T;
+}
+
+struct Pose {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  std::size_t score = 0;    // inlier correspondences
+  std::uint64_t index = 0;  // hypothesis index (ties: the lower wins)
+};
+
+bool better(const Pose& a, const Pose& b) {
+  return a.score != b.score ? a.score > b.score : a.index < b.index;
+}
+
+// Re-estimates T on its inliers while that does not lose support (step 6).
+Pose refine(const Correspondences& c, Pose pose, double sq_radius) {
+  for (int round = 0; round < kRefineRounds; ++round) {
+    std::size_t used = 0;
+    const Eigen::Isometry3d T = fit_inliers(c, pose.T, sq_radius, used);
+    if (used < 3) break;
+    const std::size_t score = count_inliers(c, T, sq_radius);
+    if (score < pose.score) break;
+    pose.T = T;
+    pose.score = score;
+  }
+  return pose;
+}
+
+// One hypothesis: a 3-sample with the edge-length check, Kabsch, the distance check, the count.
+// Returns false when a checker rejects it.
+bool evaluate(const Correspondences& c, std::uint64_t seed, std::uint64_t k, double voxel,
+              double sq_radius, Pose& out) {
+  HypothesisStream rng(seed, k);
+  const std::size_t n = c.size();
+  std::size_t s[3];
+  s[0] = rng.below(n);
+  do s[1] = rng.below(n);
+  while (s[1] == s[0]);
+  do s[2] = rng.below(n);
+  while (s[2] == s[0] || s[2] == s[1]);
+  for (int a = 0; a < 3; ++a) {
+    for (int b = a + 1; b < 3; ++b) {
+      const double ds = (c.p[s[a]] - c.p[s[b]]).norm();
+      const double dt = (c.q[s[a]] - c.q[s[b]]).norm();
+      if (ds < kEdgeRatio * dt || dt < kEdgeRatio * ds) return false;
+    }
+  }
+  // A sliver triangle leaves the rotation about its long side undetermined.
+  if ((c.p[s[1]] - c.p[s[0]]).cross(c.p[s[2]] - c.p[s[0]]).norm() < voxel * voxel) return false;
+  const Eigen::Vector3d p0 = (c.p[s[0]] + c.p[s[1]] + c.p[s[2]]) / 3.0;
+  const Eigen::Vector3d q0 = (c.q[s[0]] + c.q[s[1]] + c.q[s[2]]) / 3.0;
+  KabschAccumulator acc;
+  for (std::size_t i : s) acc.add(c.p[i] - p0, c.q[i] - q0);
+  Eigen::Isometry3d T = solve_kabsch(acc);
+  T.translation() += q0 - T.linear() * p0;
+  for (std::size_t i : s)
+    if ((T * c.p[i] - c.q[i]).squaredNorm() >= sq_radius) return false;
+  out.T = T;
+  out.score = count_inliers(c, T, sq_radius);
+  out.index = k;
+  return true;
+}
+
+// Poses are distinct when their rotations differ by more than distinct_rotation_deg or they send
+// the source centroid more than 2 voxels apart (global.hpp).
+struct Distinct {
+  double max_angle, sq_max_offset;
+  Eigen::Vector3d centre;
+  bool operator()(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) const {
+    return rotation_angle(a.linear().transpose() * b.linear()) > max_angle ||
+           (a * centre - b * centre).squaredNorm() > sq_max_offset;
+  }
+};
+
+// The best pose of each distinct region seen so far, best first, at most kMaxPoses. Fed in
+// hypothesis order, so its content does not depend on the thread count.
+void remember(std::vector<Pose>& poses, const Pose& pose, const Distinct& distinct) {
+  for (Pose& p : poses) {
+    if (!distinct(p.T, pose.T)) {
+      if (better(pose, p)) p = pose;
+      std::sort(poses.begin(), poses.end(), better);
+      return;
+    }
+  }
+  poses.push_back(pose);
+  std::sort(poses.begin(), poses.end(), better);
+  if (poses.size() > kMaxPoses) poses.pop_back();
+}
+
+std::string fixed(double value, int digits = 2) {
+  char buffer[64];
+  std::snprintf(buffer, sizeof buffer, "%.*f", digits, value);
+  return buffer;
+}
+
+}  // namespace
+
+GlobalResult fpfh_ransac_register(const PointCloud& source, const PointCloud& target,
+                                  const GlobalSettings& settings) {
+  const auto start = std::chrono::steady_clock::now();
+  GlobalResult result;
+  result.method = GlobalMethod::kFpfh;
+  if (target.size() < 10 || source.size() < 10)
+    throw DataError(std::string(target.size() < 10 ? "target" : "source") + ": " +
+                    std::to_string(std::min(target.size(), source.size())) +
+                    " points; FPFH registration needs at least 10");
+  const double voxel = global_voxel(target, settings);
+  if (!(voxel > 0) || !std::isfinite(voxel))
+    throw DataError("target: all points are at one spot (no length scale for the voxel)");
+  result.voxel = voxel;
+  const int threads = settings.threads;
+
+  // Steps 1-3: downsample, normals, descriptors.
+  const Prepared src = prepare(source, voxel, "source", threads);
+  const Prepared tgt = prepare(target, voxel, "target", threads);
+  // Step 4: descriptor nearest neighbours.
+  const Correspondences corr = match(src, tgt, settings.mutual_filter, threads);
+
+  const double sq_radius = (kInlierDistance * voxel) * (kInlierDistance * voxel);
+  const Distinct distinct{deg_to_rad(settings.distinct_rotation_deg),
+                          (kDistinctTranslation * voxel) * (kDistinctTranslation * voxel),
+                          centroid(src.all)};
+  auto finish = [&](GlobalResult& r) {
+    r.time_ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    return r;
+  };
+  if (corr.size() < 3) {
+    result.message = "only " + std::to_string(corr.size()) + " descriptor correspondences";
+    return finish(result);
+  }
+
+  // Step 5: RANSAC in blocks; the confidence bound k = log(1 − conf) / log(1 − w³) is checked
+  // between blocks, w the best inlier share so far.
+  const auto max_iterations = static_cast<std::uint64_t>(std::max(0, settings.ransac_iterations));
+  std::uint64_t needed = max_iterations, drawn = 0;
+  std::vector<Pose> poses;
+  std::vector<Pose> block(kBlock);
+  std::vector<unsigned char> accepted(kBlock);
+  while (drawn < needed) {
+    const std::size_t count =
+        static_cast<std::size_t>(std::min<std::uint64_t>(kBlock, needed - drawn));
+    parallel_for(count, threads, [&](std::size_t i) {
+      accepted[i] = evaluate(corr, settings.seed, drawn + i, voxel, sq_radius, block[i]);
+    });
+    for (std::size_t i = 0; i < count; ++i) {
+      if (!accepted[i]) continue;
+      ++result.candidates;
+      remember(poses, block[i], distinct);
+    }
+    drawn += count;
+    if (!poses.empty()) {
+      const double w = static_cast<double>(poses.front().score) / static_cast<double>(corr.size());
+      const double w3 = w * w * w;
+      const double k = w3 >= 1 ? 0.0 : std::log(1 - settings.ransac_confidence) / std::log1p(-w3);
+      if (k < static_cast<double>(needed))
+        needed = std::max(drawn, static_cast<std::uint64_t>(std::ceil(k)));
+    }
+  }
+  if (poses.empty()) {
+    result.message = "no pose with enough support: none of " + std::to_string(drawn) +
+                     " hypotheses passed the consistency checks";
+    return finish(result);
+  }
+
+  // Step 6: refine every remembered pose (a 3-point estimate ranks poses only roughly) and keep
+  // the best refined one; measure its overlap.
+  for (Pose& pose : poses) pose = refine(corr, pose, sq_radius);
+  std::sort(poses.begin(), poses.end(), better);
+  const Pose best = poses.front();
+  result.T_target_source = best.T;
+  result.score = static_cast<double>(best.score);
+  result.overlap = overlap_fraction(src.all, *tgt.tree, best.T, kInlierDistance * voxel, threads);
+
+  // Step 7: success.
+  if (result.overlap < settings.min_overlap) {
+    result.message = "no pose with enough support: best overlap " + fixed(result.overlap) + " < " +
+                     fixed(settings.min_overlap);
+  } else if (best.score < kMinInliers) {
+    result.message = "no pose with enough support: " + std::to_string(best.score) +
+                     " inlier correspondences < " + std::to_string(kMinInliers);
+  } else {
+    result.success = true;
+  }
+
+  // Step 8: the refined poses distinct from the winner, best first; the first that explains the
+  // geometry about as well (overlap within ambiguity_ratio of the winner's) with its own evidence
+  // (at least half the winner's inlier count among correspondences that are not inliers of the
+  // winner) makes the result ambiguous. The second condition tells a symmetric twin (disjoint
+  // support) from a poor estimate of the winner's own basin just past distinct_rotation_deg (shared
+  // support); overlap alone cannot tell a twin from a pose that lays only the dominant plane, and
+  // raw inlier counts split unevenly between twins (a descriptor matches one of the symmetric
+  // copies at random).
+  for (std::size_t i = 1; result.success && i < poses.size(); ++i) {
+    if (!distinct(poses[i].T, best.T)) continue;  // refinement joined the winner
+    const Pose& second = poses[i];
+    const std::size_t own = count_exclusive(corr, second.T, best.T, sq_radius);
+    const double overlap =
+        overlap_fraction(src.all, *tgt.tree, second.T, kInlierDistance * voxel, threads);
+    if (overlap >= settings.ambiguity_ratio * result.overlap &&
+        static_cast<double>(own) >= kTwinSupport * result.score && own >= kMinInliers) {
+      result.ambiguous = true;
+      result.second_T = second.T;
+      result.second_score = static_cast<double>(second.score);
+      const double angle =
+          rad_to_deg(rotation_angle(best.T.linear().transpose() * second.T.linear()));
+      const std::string note = "ambiguous: a pose " + fixed(angle, 1) + " deg away has overlap " +
+                               fixed(overlap) + " (best " + fixed(result.overlap) + ") and " +
+                               std::to_string(second.score) + " inliers (best " +
+                               std::to_string(best.score) + ")";
+      result.message = note;
+      break;
+    }
+  }
+  return finish(result);
+}
+
+}  // namespace align3d
