@@ -21,8 +21,9 @@ Command add_demo(CLI::App& app, Streams io) {
   CLI::App* sub = app.add_subcommand(
       "demo",
       "Reproduce the chapter: ICP point-to-point (good and bad initial value), point-to-plane, our "
-      "robust default, plane correction; print the table beside the chapter's numbers and write "
-      "table.md, results.json, figures fig39_1..5 (.svg, .png) and report.html into OUTDIR.");
+      "robust default, the global-registration remedy, plane correction; print the table beside the "
+      "chapter's numbers and write "
+      "table.md, results.json, figures fig39_1..6 (.svg, .png) and report.html into OUTDIR.");
   sub->add_option("OUTDIR", o->outdir, "Output directory (created if missing)")->capture_default_str();
   sub->add_option("--scene", o->scene, "Read the scene from a directory written by `align3d synth`");
   sub->add_option("--seed", o->seed, "Seed of the generated scene")->capture_default_str();
@@ -42,7 +43,7 @@ Command add_demo(CLI::App& app, Streams io) {
             report::write_chapter_report(scene, results, o->outdir);
             io.out << report::chapter_table(results) << "\n";
             const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-            io.out << "wrote " << o->outdir << "/{table.md,results.json,fig39_1..5.svg/.png,report.html} in "
+            io.out << "wrote " << o->outdir << "/{table.md,results.json,fig39_1..6.svg/.png,report.html} in "
                    << s << " s\n";
             return 0;
           }};

@@ -28,6 +28,7 @@ struct RegisterOptions {
   std::string ppf_model;
   double voxel = 0;
   std::uint64_t seed = 1;
+  bool mutual = false;
 };
 
 nlohmann::json global_json(const GlobalResult& g) {
@@ -55,6 +56,7 @@ GlobalResult run_global(const RegisterOptions& o, const PointCloud& source, cons
   gs.voxel = o.voxel;
   gs.seed = o.seed;
   gs.threads = o.threads;
+  gs.mutual_filter = o.mutual;
   if (o.ppf_model.empty()) return global_register(source, target, gs);
   const PpfModel model = load_ppf_model(o.ppf_model);
   const auto start = std::chrono::steady_clock::now();
@@ -224,6 +226,8 @@ Command add_register(CLI::App& app, Streams io) {
       ->capture_default_str();
   sub->add_option("--seed", o->seed, "Seed of the coarse stage (same seed, same pose)")
       ->capture_default_str();
+  sub->add_flag("--mutual", o->mutual,
+                "fpfh: keep only mutual descriptor nearest neighbours (fewer, cleaner matches)");
   sub->add_option("--reject", o->reject,
                   "Correspondence rejection: auto (robust schedule scaled to the data), "
                   "median[:FACTOR[:FLOOR]] (keep d <= max(FACTOR*median, FLOOR); the chapter uses "

@@ -1,5 +1,5 @@
 // The chapter's experiments (sections 39.2-39.5) on its scene, and their report: the table that
-// sets our numbers beside the chapter's, results.json, figures 39.1-39.5 and report.html.
+// sets our numbers beside the chapter's, results.json, figures 39.1-39.6 and report.html.
 #pragma once
 
 #include <cmath>
