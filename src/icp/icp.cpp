@@ -56,69 +56,72 @@ struct Step {
   bool solvable = false;
 };
 
+// Sums over the kept pairs (distance <= threshold), in coordinates about `centre`: `add(sums, p, q,
+// target index, distance)` folds one pair into the metric's sums and returns its squared residual.
+template <class Sums>
+struct PairTotals {
+  Sums sums;
+  double sq_error = 0;
+  std::size_t kept = 0;
+};
+
+template <class Sums, class Add>
+PairTotals<Sums> reduce_pairs(const PointCloud& source, const PointCloud& target,
+                              const Correspondences& c, const Eigen::Isometry3d& T,
+                              const Eigen::Vector3d& centre, double threshold, int threads, Add add) {
+  return parallel_reduce(
+      source.size(), threads, PairTotals<Sums>{},
+      [&](PairTotals<Sums>& a, std::size_t i) {
+        if (c.target[i] == kNone || c.distance[i] > threshold) return;
+        const Eigen::Vector3d p = T * source.positions[i] - centre;
+        const Eigen::Vector3d q = target.positions[c.target[i]] - centre;
+        a.sq_error += add(a.sums, p, q, c.target[i], c.distance[i]);
+        ++a.kept;
+      },
+      [](PairTotals<Sums>& a, const PairTotals<Sums>& b) {
+        a.sums += b.sums;
+        a.sq_error += b.sq_error;
+        a.kept += b.kept;
+      });
+}
+
 // Evaluates the kept pairs at pose T and solves for the update (in coordinates about `centre`).
 Step solve_step(const PointCloud& source, const PointCloud& target, const Correspondences& c,
                 const Eigen::Isometry3d& T, const Eigen::Vector3d& centre, double threshold,
                 const IcpSettings& s) {
-  const std::size_t n = source.size();
   Step step;
   auto weight = [&](double d) { return geman_mcclure_weight(d, s.robust_scale); };
+  auto finish = [&](const auto& totals, std::size_t min_pairs) {
+    step.kept = totals.kept;
+    step.rms = totals.kept ? std::sqrt(totals.sq_error / static_cast<double>(totals.kept)) : 0.0;
+    step.solvable = totals.kept >= min_pairs;
+  };
   if (s.method == IcpMethod::kPointToPoint) {
-    struct Acc {
-      KabschAccumulator kabsch;
-      double sq_error = 0;
-      std::size_t kept = 0;
-    };
-    const Acc acc = parallel_reduce(
-        n, s.threads, Acc{},
-        [&](Acc& a, std::size_t i) {
-          if (c.target[i] == kNone || c.distance[i] > threshold) return;
-          const Eigen::Vector3d p = T * source.positions[i] - centre;
-          const Eigen::Vector3d q = target.positions[c.target[i]] - centre;
-          a.kabsch.add(p, q, weight(c.distance[i]));
-          a.sq_error += c.distance[i] * c.distance[i];
-          ++a.kept;
-        },
-        [](Acc& a, const Acc& b) {
-          a.kabsch += b.kabsch;
-          a.sq_error += b.sq_error;
-          a.kept += b.kept;
+    const auto totals = reduce_pairs<KabschAccumulator>(
+        source, target, c, T, centre, threshold, s.threads,
+        [&](KabschAccumulator& sums, const Eigen::Vector3d& p, const Eigen::Vector3d& q, std::size_t,
+            double d) {
+          sums.add(p, q, weight(d));
+          return d * d;
         });
-    step.kept = acc.kept;
-    step.rms = acc.kept ? std::sqrt(acc.sq_error / static_cast<double>(acc.kept)) : 0.0;
-    step.solvable = acc.kept >= 3;
-    if (step.solvable) step.delta = solve_kabsch(acc.kabsch);
+    finish(totals, 3);
+    if (step.solvable) step.delta = solve_kabsch(totals.sums);
     return step;
   }
-  struct Acc {
-    LinearSystem6 system;
-    double sq_error = 0;
-    std::size_t kept = 0;
-  };
-  const Acc acc = parallel_reduce(
-      n, s.threads, Acc{},
-      [&](Acc& a, std::size_t i) {
-        if (c.target[i] == kNone || c.distance[i] > threshold) return;
-        const Eigen::Vector3d p = T * source.positions[i] - centre;
-        const Eigen::Vector3d q = target.positions[c.target[i]] - centre;
-        const Eigen::Vector3d& normal = target.normals[c.target[i]];
+  const auto totals = reduce_pairs<LinearSystem6>(
+      source, target, c, T, centre, threshold, s.threads,
+      [&](LinearSystem6& sums, const Eigen::Vector3d& p, const Eigen::Vector3d& q, std::size_t j,
+          double) {
+        const Eigen::Vector3d& normal = target.normals[j];
         const double r = PointToPlaneFactor::residual(p, q, normal);
-        a.system.add(PointToPlaneFactor::jacobian(p, normal), r, weight(std::abs(r)));
-        a.sq_error += r * r;
-        ++a.kept;
-      },
-      [](Acc& a, const Acc& b) {
-        a.system += b.system;
-        a.sq_error += b.sq_error;
-        a.kept += b.kept;
+        sums.add(PointToPlaneFactor::jacobian(p, normal), r, weight(std::abs(r)));
+        return r * r;
       });
-  step.kept = acc.kept;
-  step.rms = acc.kept ? std::sqrt(acc.sq_error / static_cast<double>(acc.kept)) : 0.0;
-  step.hessian = acc.system.H;
-  step.solvable = acc.kept >= 6;
+  finish(totals, 6);
+  step.hessian = totals.sums.H;
   if (step.solvable) {
     // Solve H·x = −b; LDLT copes with a semi-definite H (directions the data leaves free).
-    const Vector6d x = acc.system.H.ldlt().solve(-acc.system.b);
+    const Vector6d x = totals.sums.H.ldlt().solve(-totals.sums.b);
     step.solvable = x.allFinite();
     // The small-angle model is re-orthonormalised through the exponential map (se3.hpp).
     if (step.solvable) step.delta = se3_exp(x);
