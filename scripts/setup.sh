@@ -1,10 +1,12 @@
 #!/usr/bin/env bash
 # Installs align3d's build and test dependencies from Debian's packages, only those missing.
-# Usage: scripts/setup.sh            (needs root or sudo; does nothing when all are present)
+# Usage: scripts/setup.sh [PACKAGE...]   (needs root or sudo; does nothing when all are present)
+# With packages named, installs those instead of the build's own list (scripts/setup-peers.sh).
 set -euo pipefail
-pkgs=(build-essential cmake ninja-build pkg-config ca-certificates
+default_pkgs=(build-essential cmake ninja-build pkg-config ca-certificates
       libeigen3-dev libnanoflann-dev libcli11-dev nlohmann-json3-dev libfast-float-dev
       liblzf-dev libcairo2-dev fonts-dejavu-core libgtest-dev libgmock-dev libbenchmark-dev)
+[ $# -gt 0 ] && pkgs=("$@") || pkgs=("${default_pkgs[@]}")
 missing=()
 for p in "${pkgs[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
