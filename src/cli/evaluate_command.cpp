@@ -91,9 +91,11 @@ int run_evaluate(const EvaluateOptions& o, Streams io) {
     }
     h.values = b.success;
     panels.push_back(h);
-    md << "\n" << report::to_string(method) << "\n\n| translation \\ rotation |";
+    md << std::defaultfloat << std::setprecision(6) << "\n" << report::to_string(method) << "\n\n| translation \\ rotation |";
     for (double a : angles) md << " " << a << "° |";
-    md << "\n|---|" << std::string(angles.size() * 4, '-') << "\n";
+    md << "\n|---|";
+    for (std::size_t i = 0; i < angles.size(); ++i) md << "---:|";
+    md << "\n";
     for (Eigen::Index r = b.success.rows() - 1; r >= 0; --r) {
       md << "| " << shifts[static_cast<std::size_t>(r)] << " |";
       for (Eigen::Index c = 0; c < b.success.cols(); ++c) md << " " << percent(b.success(r, c)) << " |";
