@@ -19,16 +19,10 @@
 #include "align3d/random.hpp"
 #include "align3d/se3.hpp"
 #include "align3d/synth/scenes.hpp"
+#include "test_util.hpp"
 
 namespace align3d {
 namespace {
-
-Eigen::Isometry3d rigid(double angle_deg, const Eigen::Vector3d& axis, const Eigen::Vector3d& t) {
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.linear() = Eigen::AngleAxisd(deg_to_rad(angle_deg), axis.normalized()).toRotationMatrix();
-  T.translation() = t;
-  return T;
-}
 
 // The pipeline's descriptor stage: PCA normals, local orientation, FPFH with radius 5 voxels.
 std::vector<FpfhDescriptor> describe(PointCloud cloud, double voxel, int threads = 1) {
@@ -109,7 +103,7 @@ TEST(Fpfh, InvariantUnderRigidMotionsUpTo180Degrees) {
   Random rng(11);
   for (double angle : {30.0, 90.0, 150.0, 180.0}) {
     const Eigen::Vector3d axis(rng.normal(), rng.normal(), rng.normal());
-    const PointCloud moved = transformed(cloud, rigid(angle, axis, {40, -25, 60}));
+    const PointCloud moved = transformed(cloud, rigid_transform(angle, axis, {40, -25, 60}));
     const KdTree moved_tree(moved.positions);
     const auto [share, worst] = agreement(a, compute_fpfh(moved, moved_tree, {5 * voxel}));
     EXPECT_GE(share, 0.995) << angle << " deg; worst L1 difference " << worst;
@@ -125,7 +119,7 @@ TEST(Fpfh, DescriptorStageInvariantOnTheChapterScan) {
   const PointCloud cloud = voxel_downsample(scene.scan, voxel);
   const auto a = describe(cloud, voxel);
   for (double angle : {90.0, 180.0}) {
-    const auto b = describe(transformed(cloud, rigid(angle, {1, -2, 0.5}, {100, 50, -30})), voxel);
+    const auto b = describe(transformed(cloud, rigid_transform(angle, {1, -2, 0.5}, {100, 50, -30})), voxel);
     const auto [share, worst] = agreement(a, b);
     EXPECT_GE(share, 0.97) << angle << " deg; worst L1 difference " << worst;
   }

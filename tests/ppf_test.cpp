@@ -198,31 +198,14 @@ TEST_F(PpfFile, CorruptReferenceThrowsIoError) {
   expect_io_error(write("ref.ppf", bad), "names point");
 }
 
-// A closed 60 × 40 × 20 box, its six faces sampled by area.
-PointCloud sample_box(int n, Random& rng) {
-  const Eigen::Vector3d h(30, 20, 10);
-  const double areas[3] = {h.y() * h.z(), h.x() * h.z(), h.x() * h.y()};  // faces ⟂ x, y, z
-  const double total = areas[0] + areas[1] + areas[2];
-  PointCloud cloud;
-  for (int i = 0; i < n; ++i) {
-    const double u = rng.uniform(0, total);
-    const int axis = u < areas[0] ? 0 : u < areas[0] + areas[1] ? 1 : 2;
-    Eigen::Vector3d p(rng.uniform(-h.x(), h.x()), rng.uniform(-h.y(), h.y()),
-                      rng.uniform(-h.z(), h.z()));
-    p(axis) = rng.uniform() < 0.5 ? -h(axis) : h(axis);
-    cloud.positions.push_back(p);
-  }
-  return cloud;
-}
-
 TEST(Ppf, PlainBoxIsAmbiguous) {
   Random rng(21);
-  const PointCloud model = sample_box(6000, rng);
+  const PointCloud model = test::box_surface(6000, rng);
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
   T.linear() =
       Eigen::AngleAxisd(deg_to_rad(140), Eigen::Vector3d(1, 2, -1).normalized()).toRotationMatrix();
   T.translation() = Eigen::Vector3d(10, -20, 5);
-  const PointCloud scene = transformed(sample_box(6000, rng), T);
+  const PointCloud scene = transformed(test::box_surface(6000, rng), T);
   const GlobalResult r = ppf_register(scene, model, ppf_settings());
   EXPECT_TRUE(r.success) << r.message;
   EXPECT_TRUE(r.ambiguous) << r.message;

@@ -16,16 +16,10 @@
 #include "align3d/random.hpp"
 #include "align3d/se3.hpp"
 #include "align3d/synth/scenes.hpp"
+#include "test_util.hpp"
 
 namespace align3d {
 namespace {
-
-Eigen::Isometry3d rigid(double angle_deg, const Eigen::Vector3d& axis, const Eigen::Vector3d& t) {
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.linear() = Eigen::AngleAxisd(deg_to_rad(angle_deg), axis.normalized()).toRotationMatrix();
-  T.translation() = t;
-  return T;
-}
 
 Eigen::Vector3d random_direction(Random& rng) {
   const double x = rng.normal(), y = rng.normal(), z = rng.normal();
@@ -54,7 +48,7 @@ Case large_motion(const synth::Scene& scene, std::uint64_t seed) {
   Random rng(seed);
   const Eigen::Vector3d axis = random_direction(rng);
   const Eigen::Vector3d shift = 0.5 * bounding_box_diagonal(scene.model) * random_direction(rng);
-  const Eigen::Isometry3d P = rigid(150, axis, shift);
+  const Eigen::Isometry3d P = rigid_transform(150, axis, shift);
   return {transformed(scene.scan, P), scene.model, scene.T_model_scan * P.inverse()};
 }
 
@@ -76,7 +70,7 @@ TEST(FpfhRansac, ChapterSceneLargeRotation) {
 
 TEST(FpfhRansac, ChapterSceneHalfTurn) {
   const auto scene = synth::make_conveyor_scene();
-  const Eigen::Isometry3d P = rigid(180, {0.2, 1, -0.3}, {-120, 60, 90});
+  const Eigen::Isometry3d P = rigid_transform(180, {0.2, 1, -0.3}, {-120, 60, 90});
   expect_recovers({transformed(scene.scan, P), scene.model, scene.T_model_scan * P.inverse()});
 }
 
@@ -164,28 +158,11 @@ TEST(FpfhRansac, NoiseDoesNotMatchTheChapterModel) {
   EXPECT_NE(r.message.find("no pose with enough support"), std::string::npos) << r.message;
 }
 
-// The six faces of a 60 × 40 × 20 box centred at the origin, sampled uniformly by area.
-PointCloud box_surface(int count, Random& rng) {
-  const Eigen::Vector3d half(30, 20, 10);
-  const double areas[3] = {half.y() * half.z(), half.x() * half.z(), half.x() * half.y()};
-  const double total = areas[0] + areas[1] + areas[2];
-  PointCloud cloud;
-  for (int i = 0; i < count; ++i) {
-    const double pick = rng.uniform() * total;
-    const int axis = pick < areas[0] ? 0 : pick < areas[0] + areas[1] ? 1 : 2;
-    Eigen::Vector3d p;
-    for (int k = 0; k < 3; ++k) p(k) = rng.uniform(-half(k), half(k));
-    p(axis) = rng.uniform() < 0.5 ? -half(axis) : half(axis);
-    cloud.positions.push_back(p);
-  }
-  return cloud;
-}
-
 TEST(FpfhRansac, BoxIsAmbiguous) {
   Random rng(8);
-  const PointCloud target = box_surface(8000, rng);
-  const Eigen::Isometry3d P = rigid(70, {1, 2, 3}, {15, -10, 5});
-  const PointCloud source = transformed(box_surface(8000, rng), P);
+  const PointCloud target = test::box_surface(8000, rng);
+  const Eigen::Isometry3d P = rigid_transform(70, {1, 2, 3}, {15, -10, 5});
+  const PointCloud source = transformed(test::box_surface(8000, rng), P);
   const GlobalResult r = fpfh_ransac_register(source, target, {});
   EXPECT_TRUE(r.success) << r.message;
   EXPECT_TRUE(r.ambiguous) << r.message;

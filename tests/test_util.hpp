@@ -6,6 +6,8 @@
 #include <random>
 #include <string>
 
+#include "align3d/point_cloud.hpp"
+#include "align3d/random.hpp"
 #include "align3d/se3.hpp"
 
 namespace align3d::test {
@@ -36,6 +38,24 @@ inline double rotation_error_deg(const Eigen::Isometry3d& estimate, const Eigen:
 
 inline double translation_error(const Eigen::Isometry3d& estimate, const Eigen::Isometry3d& truth) {
   return (estimate.translation() - truth.translation()).norm();
+}
+
+// The six faces of a 60 × 40 × 20 box centred at the origin, sampled uniformly by area: a shape
+// with symmetries, for ambiguity tests.
+inline PointCloud box_surface(int count, Random& rng) {
+  const Eigen::Vector3d half(30, 20, 10);
+  const double areas[3] = {half.y() * half.z(), half.x() * half.z(), half.x() * half.y()};
+  const double total = areas[0] + areas[1] + areas[2];
+  PointCloud cloud;
+  for (int i = 0; i < count; ++i) {
+    const double pick = rng.uniform() * total;
+    const int axis = pick < areas[0] ? 0 : pick < areas[0] + areas[1] ? 1 : 2;
+    Eigen::Vector3d p;
+    for (int k = 0; k < 3; ++k) p(k) = rng.uniform(-half(k), half(k));
+    p(axis) = rng.uniform() < 0.5 ? -half(axis) : half(axis);
+    cloud.positions.push_back(p);
+  }
+  return cloud;
 }
 
 }  // namespace align3d::test

@@ -220,8 +220,7 @@ ChapterResults run_chapter_experiments(const ChapterScene& scene, int threads) {
     return s;
   };
   const Eigen::Isometry3d identity = Eigen::Isometry3d::Identity();
-  Eigen::Isometry3d bad = identity;
-  bad.linear() = Eigen::AngleAxisd(deg_to_rad(40), Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  const Eigen::Isometry3d bad = rigid_transform(40, Eigen::Vector3d::UnitZ());  // 39.3's bad value
   RegistrationSettings defaults;
   defaults.threads = threads;
 

@@ -56,9 +56,7 @@ std::vector<EvalScene> evaluation_scenes() {
 
 TrialResult run_trial(const EvalScene& scene, EvalMethod method, double angle_deg,
                       const Eigen::Vector3d& axis, const Eigen::Vector3d& t, std::uint64_t seed) {
-  Eigen::Isometry3d P = Eigen::Isometry3d::Identity();
-  P.linear() = Eigen::AngleAxisd(deg_to_rad(angle_deg), axis.normalized()).toRotationMatrix();
-  P.translation() = t;
+  const Eigen::Isometry3d P = rigid_transform(angle_deg, axis, t);
   const PointCloud moved = transformed(scene.source, P);
   const Eigen::Isometry3d truth = scene.truth * P.inverse();  // target ≈ truth·moved
 

@@ -123,13 +123,6 @@ std::vector<Eigen::Vector3d> sample_union(const Primitives& parts, int n, Random
   return out;
 }
 
-Eigen::Isometry3d rigid(double angle_deg, const Eigen::Vector3d& axis, const Eigen::Vector3d& t) {
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.linear() = Eigen::AngleAxisd(deg_to_rad(angle_deg), axis.normalized()).toRotationMatrix();
-  T.translation() = t;
-  return T;
-}
-
 void add_noise(std::vector<Eigen::Vector3d>& points, double sigma, Random& rng) {
   for (auto& p : points) {
     const double nx = rng.normal(), ny = rng.normal(), nz = rng.normal();
@@ -196,7 +189,7 @@ Scene make_conveyor_scene(const ConveyorSettings& s) {
 
   // The scan is the model moved by the known transform, with noise (so its 4310 kept points truly
   // correspond to model points, as in the chapter).
-  const Eigen::Isometry3d T_scan_model = rigid(s.rotation_deg, s.rotation_axis, s.translation);
+  const Eigen::Isometry3d T_scan_model = rigid_transform(s.rotation_deg, s.rotation_axis, s.translation);
   std::vector<Eigen::Vector3d> seen = scene.model.positions;
   for (auto& p : seen) p = T_scan_model * p;
   add_noise(seen, s.noise_sigma, rng);
@@ -259,7 +252,7 @@ Scene make_object_scene(const ObjectSettings& s) {
     return a.dot(view) > b.dot(view);
   });
   seen.resize(static_cast<std::size_t>(s.overlap * static_cast<double>(seen.size())));
-  const Eigen::Isometry3d T_scan_model = rigid(s.rotation_deg, s.rotation_axis, s.translation);
+  const Eigen::Isometry3d T_scan_model = rigid_transform(s.rotation_deg, s.rotation_axis, s.translation);
   for (auto& p : seen) p = T_scan_model * p;
   add_noise(seen, s.noise_sigma, rng);
   Eigen::AlignedBox3d box;
@@ -301,7 +294,7 @@ Plate make_plate(const PlateSettings& s) {
   }
   const std::vector<Eigen::Vector3d> on_part = sample_union(part, clutter, rng);
   points.insert(points.end(), on_part.begin(), on_part.end());
-  const Eigen::Isometry3d T = rigid(s.tilt_deg, s.tilt_axis, Eigen::Vector3d(0, 0, s.height));
+  const Eigen::Isometry3d T = rigid_transform(s.tilt_deg, s.tilt_axis, Eigen::Vector3d(0, 0, s.height));
   for (auto& p : points) p = T * p;
   add_noise(points, s.noise_sigma, rng);
   plate.cloud.positions = std::move(points);
