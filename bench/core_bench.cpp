@@ -64,7 +64,8 @@ void IcpIteration(benchmark::State& state) {
   IcpSettings settings;
   settings.method = state.range(1) ? IcpMethod::kPointToPlane : IcpMethod::kPointToPoint;
   settings.termination.max_iterations = 1;
-  for (auto _ : state) benchmark::DoNotOptimize(icp(s.scan, target, tree, s.T_model_scan, settings));
+  for (auto _ : state)
+    benchmark::DoNotOptimize(icp(s.scan, target, tree, s.T_model_scan, settings));
   state.SetItemsProcessed(state.iterations() * static_cast<int64_t>(s.scan.size()));
 }
 

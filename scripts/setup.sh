@@ -3,7 +3,7 @@
 # Usage: scripts/setup.sh [PACKAGE...]   (needs root or sudo; does nothing when all are present)
 # With packages named, installs those instead of the build's own list (scripts/setup-peers.sh).
 set -euo pipefail
-default_pkgs=(build-essential cmake ninja-build pkg-config ca-certificates
+default_pkgs=(build-essential cmake ninja-build pkg-config ca-certificates clang-format
       libeigen3-dev libnanoflann-dev libcli11-dev nlohmann-json3-dev libfast-float-dev
       liblzf-dev libcairo2-dev fonts-dejavu-core libgtest-dev libgmock-dev libbenchmark-dev)
 [ $# -gt 0 ] && pkgs=("$@") || pkgs=("${default_pkgs[@]}")

@@ -30,7 +30,8 @@ Eigen::Isometry3d solve_kabsch(const KabschAccumulator& acc) {
   return T;
 }
 
-Eigen::Isometry3d kabsch(const std::vector<Eigen::Vector3d>& p, const std::vector<Eigen::Vector3d>& q,
+Eigen::Isometry3d kabsch(const std::vector<Eigen::Vector3d>& p,
+                         const std::vector<Eigen::Vector3d>& q,
                          const std::vector<double>& weights) {
   if (p.size() != q.size() || p.empty() || (!weights.empty() && weights.size() != p.size()))
     throw std::invalid_argument("kabsch: p, q (and weights) must be non-empty and of equal size");

@@ -18,9 +18,8 @@ struct Adaptor {
   }
 };
 
-using Tree =
-    nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, Adaptor>, Adaptor, 3,
-                                        std::uint32_t>;
+using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, Adaptor>,
+                                                 Adaptor, 3, std::uint32_t>;
 
 // A k = 1 result set whose initial radius is the caller's bound, so the search never descends into
 // cells farther than the rejection distance.

@@ -33,8 +33,8 @@ NormalResult estimate_normals(PointCloud& cloud, const KdTree& tree,
     // No plane when the middle eigenvalue vanishes relative to the largest (a line or a point).
     if (nb.size() < 3 || !(ev(1) > 1e-12 * ev(2)) || eig.info() != Eigen::Success) {
       undefined[i] = 1;
-      cloud.normals[i] = toward.norm() > 0 ? Eigen::Vector3d(toward.normalized())
-                                           : Eigen::Vector3d::UnitZ();
+      cloud.normals[i] =
+          toward.norm() > 0 ? Eigen::Vector3d(toward.normalized()) : Eigen::Vector3d::UnitZ();
       return;
     }
     Eigen::Vector3d normal = eig.eigenvectors().col(0);

@@ -18,7 +18,7 @@ constexpr double kKernelFraction = 0.5;       // Geman-McClure scale = τ/2
 constexpr double kFinalSpacings = 3.0;        // final τ >= 3 s
 constexpr double kFinalSigmas = 4.0;          // final τ >= 4 σ̂
 constexpr int kCoarseIterations = 30;
-constexpr int kMaxStages = 12;                // L/8 · 2^-12 is far below any useful spacing
+constexpr int kMaxStages = 12;  // L/8 · 2^-12 is far below any useful spacing
 
 void append(RegistrationResult& out, const IcpResult& r, const IcpSettings& s) {
   StageRecord stage;
@@ -79,8 +79,9 @@ RegistrationResult register_clouds(const PointCloud& source, const PointCloud& t
       settings.method == IcpMethod::kPointToPlane || !settings.rejection.has_value();
   if (need_normals && !target.has_normals()) {
     if (target.size() < static_cast<std::size_t>(settings.normals.k))
-      throw DataError("target: " + std::to_string(target.size()) + " points; point-to-plane needs " +
-                      "at least the normal neighbourhood k = " + std::to_string(settings.normals.k));
+      throw DataError(
+          "target: " + std::to_string(target.size()) + " points; point-to-plane needs " +
+          "at least the normal neighbourhood k = " + std::to_string(settings.normals.k));
     NormalSettings ns = settings.normals;
     ns.threads = settings.threads;
     out.undefined_normals = estimate_normals(target, tree, ns).undefined;

@@ -1,9 +1,10 @@
 // The chapter's lessons, asserted on the generated scene (issue #3, "Done when").
+#include "align3d/report/chapter.hpp"
+
 #include <gtest/gtest.h>
 
 #include <fstream>
 
-#include "align3d/report/chapter.hpp"
 #include "align3d/synth/scenes.hpp"
 #include "test_util.hpp"
 
@@ -44,7 +45,8 @@ TEST(ChapterScene, CountsAreExact) {
   for (std::size_t i = 0; i < s.scan_corresponding; ++i) {
     const Eigen::Vector3d back = s.T_model_scan * s.scan.positions[i];
     double best = 1e300;
-    for (std::size_t k = 0; k < s.model.size(); k += 1) best = std::min(best, (back - s.model.positions[k]).squaredNorm());
+    for (std::size_t k = 0; k < s.model.size(); k += 1)
+      best = std::min(best, (back - s.model.positions[k]).squaredNorm());
     sq += best;
     ++n;
     if (n == 200) break;
@@ -69,8 +71,8 @@ TEST_F(Chapter, BadInitialValueEndsInAWrongMinimum) {
   EXPECT_GT(results_->p2p_bad.rotation_error_deg, 10.0);
 }
 
-// The remedy (issue #4 target): from the same bad initial value, global registration + point-to-plane
-// recovers the pose to the chapter's point-to-plane accuracy.
+// The remedy (issue #4 target): from the same bad initial value, global registration +
+// point-to-plane recovers the pose to the chapter's point-to-plane accuracy.
 TEST_F(Chapter, GlobalRegistrationRemediesTheBadInitialValue) {
   EXPECT_TRUE(results_->global_coarse.success) << results_->global_coarse.message;
   EXPECT_LT(results_->global.rotation_error_deg, 0.05);
@@ -103,7 +105,8 @@ TEST_F(Chapter, ReportHasTheTableFiguresAndPage) {
   const std::string html((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   EXPECT_EQ(html.find("http"), std::string::npos);  // opens with no network
   std::size_t images = 0;
-  for (std::size_t at = 0; (at = html.find("data:image/png;base64,", at)) != std::string::npos; ++at)
+  for (std::size_t at = 0; (at = html.find("data:image/png;base64,", at)) != std::string::npos;
+       ++at)
     ++images;
   EXPECT_EQ(images, 6u);
   const std::string table = chapter_table(*results_);

@@ -1,12 +1,13 @@
 // `align3d` run in-process: the register contract (issue #2), synth, rectify, and the bad-input
 // classes with their exit codes, messages and no output left behind.
+#include "align3d/cli.hpp"
+
 #include <gtest/gtest.h>
 
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "align3d/cli.hpp"
 #include "align3d/error.hpp"
 #include "align3d/io/matrix_io.hpp"
 #include "align3d/io/point_cloud_io.hpp"
@@ -56,14 +57,14 @@ test::TempDir* Cli::dir_ = nullptr;
 TEST_F(Cli, RegisterWritesTheReportAndTheAlignedCloud) {
   test::TempDir out("register");
   const CliRun r = run({"register", scene("scan.ply"), scene("model.ply"), "--ground-truth",
-                     scene("ground_truth.txt"), "--report", (out / "r.json").string(), "--output",
-                     (out / "aligned.ply").string()});
+                        scene("ground_truth.txt"), "--report", (out / "r.json").string(),
+                        "--output", (out / "aligned.ply").string()});
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.out.find("converged: yes"), std::string::npos) << r.out;
   const auto j = nlohmann::json::parse(read_text(out / "r.json"));
-  for (const char* key : {"transformation", "rotation_deg", "translation", "iterations", "converged",
-                          "rms", "fitness", "correspondences", "history", "stop_reason", "timing_ms",
-                          "rotation_error_deg", "translation_error"})
+  for (const char* key : {"transformation", "rotation_deg", "translation", "iterations",
+                          "converged", "rms", "fitness", "correspondences", "history",
+                          "stop_reason", "timing_ms", "rotation_error_deg", "translation_error"})
     EXPECT_TRUE(j.contains(key)) << key;
   ASSERT_EQ(j["transformation"].size(), 4u);
   for (const auto& row : j["transformation"]) EXPECT_EQ(row.size(), 4u);
@@ -92,7 +93,7 @@ TEST_F(Cli, RegisterWritesTheReportAndTheAlignedCloud) {
 
 TEST_F(Cli, ReportToStdoutIsPureJson) {
   const CliRun r = run({"register", scene("scan.ply"), scene("model.ply"), "--report", "-",
-                     "--method", "point-to-point", "--reject", "median:2.5:0.5"});
+                        "--method", "point-to-point", "--reject", "median:2.5:0.5"});
   ASSERT_EQ(r.code, 0) << r.err;
   const auto j = nlohmann::json::parse(r.out);  // throws if anything else was printed
   EXPECT_EQ(j["method"], "point-to-point");
@@ -101,9 +102,9 @@ TEST_F(Cli, ReportToStdoutIsPureJson) {
 
 TEST_F(Cli, InitFromAMatrixFile) {
   // Starting at the truth, point-to-plane stays there.
-  const CliRun r = run({"register", scene("scan.ply"), scene("model.ply"), "--init",
-                     scene("ground_truth.txt"), "--ground-truth", scene("ground_truth.txt"),
-                     "--report", "-"});
+  const CliRun r =
+      run({"register", scene("scan.ply"), scene("model.ply"), "--init", scene("ground_truth.txt"),
+           "--ground-truth", scene("ground_truth.txt"), "--report", "-"});
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_LT(nlohmann::json::parse(r.out)["rotation_error_deg"].get<double>(), 0.05);
 }
@@ -123,8 +124,8 @@ TEST_F(Cli, RectifyReportsTheTilt) {
   const CliRun r = run({"rectify", scene("plate.ply"), "--report", "-"});
   ASSERT_EQ(r.code, 0) << r.err;
   const auto j = nlohmann::json::parse(r.out);
-  for (const char* key : {"normal", "tilt_before_deg", "tilt_after_deg", "inliers", "flatness",
-                          "transformation"})
+  for (const char* key :
+       {"normal", "tilt_before_deg", "tilt_after_deg", "inliers", "flatness", "transformation"})
     EXPECT_TRUE(j.contains(key)) << key;
   EXPECT_NEAR(j["tilt_before_deg"].get<double>(), 7.0, 0.05);
   EXPECT_LT(j["tilt_after_deg"].get<double>(), 1e-3);
@@ -142,7 +143,8 @@ struct BadCase {
 class CliBadInput : public Cli {
  protected:
   // Runs register with `source` and checks the error contract; an existing output must survive.
-  void expect_failure(const std::vector<std::string>& args, int expected, const std::string& mention) {
+  void expect_failure(const std::vector<std::string>& args, int expected,
+                      const std::string& mention) {
     test::TempDir out("bad");
     write_text(out / "aligned.ply", "previous good content");
     std::vector<std::string> full = args;
@@ -215,8 +217,9 @@ TEST_F(CliBadInput, CollinearPoints) {
 TEST_F(CliBadInput, MalformedMatrix) {
   test::TempDir d("mat");
   write_text(d / "init.txt", "1 0 0 0\n0 1 0 0\n0 0 1 0\n");
-  expect_failure({"register", scene("scan.ply"), scene("model.ply"), "--init", (d / "init.txt").string()},
-                 code(ExitCode::kInput), "init.txt");
+  expect_failure(
+      {"register", scene("scan.ply"), scene("model.ply"), "--init", (d / "init.txt").string()},
+      code(ExitCode::kInput), "init.txt");
 }
 
 TEST_F(CliBadInput, WrongFlags) {
@@ -234,8 +237,8 @@ TEST_F(CliBadInput, WrongFlags) {
 TEST_F(CliBadInput, NoCorrespondencesIsNoSolution) {
   // distance:1e-6 mm admits no pair from the identity: exit 6, and no aligned cloud.
   test::TempDir out("nosol");
-  const CliRun r = run({"register", scene("scan.ply"), scene("model.ply"), "--reject", "distance:1e-6",
-                     "--output", (out / "aligned.ply").string()});
+  const CliRun r = run({"register", scene("scan.ply"), scene("model.ply"), "--reject",
+                        "distance:1e-6", "--output", (out / "aligned.ply").string()});
   EXPECT_EQ(r.code, code(ExitCode::kNoSolution)) << r.err;
   EXPECT_FALSE(std::filesystem::exists(out / "aligned.ply"));
 }
@@ -246,7 +249,8 @@ TEST_F(Cli, NonFinitePointsAreDroppedWithAWarning) {
   std::string text;
   for (std::size_t i = 0; i < scan.size(); ++i) {
     const auto& p = scan.positions[i];
-    text += std::to_string(p.x()) + " " + std::to_string(p.y()) + " " + std::to_string(p.z()) + "\n";
+    text +=
+        std::to_string(p.x()) + " " + std::to_string(p.y()) + " " + std::to_string(p.z()) + "\n";
     if (i % 1000 == 0) text += "nan 1 2\n1 inf 2\n";
   }
   write_text(d / "scan.xyz", text);
@@ -261,15 +265,16 @@ TEST_F(Cli, GlobalInitFindsAPoseFromFarAway) {
   test::TempDir d("global");
   const PointCloud scan = io::read_point_cloud(scene("scan.ply"));
   Eigen::Isometry3d P = Eigen::Isometry3d::Identity();
-  P.linear() = Eigen::AngleAxisd(deg_to_rad(150), Eigen::Vector3d(1, -2, 0.5).normalized()).matrix();
+  P.linear() =
+      Eigen::AngleAxisd(deg_to_rad(150), Eigen::Vector3d(1, -2, 0.5).normalized()).matrix();
   P.translation() = Eigen::Vector3d(40, -70, 25);
   io::write_ply(d / "turned.ply", transformed(scan, P));
   const Eigen::Isometry3d truth = io::read_matrix(scene("ground_truth.txt")) * P.inverse();
   io::write_matrix(d / "truth.txt", truth);
   for (const char* method : {"fpfh", "ppf"}) {
-    const CliRun r = run({"register", (d / "turned.ply").string(), scene("model.ply"), "--init",
-                          "global", "--global", method, "--ground-truth", (d / "truth.txt").string(),
-                          "--report", "-"});
+    const CliRun r =
+        run({"register", (d / "turned.ply").string(), scene("model.ply"), "--init", "global",
+             "--global", method, "--ground-truth", (d / "truth.txt").string(), "--report", "-"});
     ASSERT_EQ(r.code, 0) << method << ": " << r.err;
     const auto j = nlohmann::json::parse(r.out);
     ASSERT_TRUE(j.contains("global")) << method;
@@ -293,13 +298,16 @@ TEST_F(Cli, SavedPpfModelGivesTheSamePose) {
   ASSERT_EQ(run({"ppf-model", scene("model.ply"), (d / "model.ppf").string()}).code, 0);
   const CliRun a = run({"register", scene("scan.ply"), scene("model.ply"), "--init", "global",
                         "--global", "ppf", "--report", "-"});
-  const CliRun b = run({"register", scene("scan.ply"), scene("model.ply"), "--init", "global",
-                        "--global", "ppf", "--ppf-model", (d / "model.ppf").string(), "--report", "-"});
+  const CliRun b =
+      run({"register", scene("scan.ply"), scene("model.ply"), "--init", "global", "--global", "ppf",
+           "--ppf-model", (d / "model.ppf").string(), "--report", "-"});
   ASSERT_EQ(a.code, 0) << a.err;
   ASSERT_EQ(b.code, 0) << b.err;
-  EXPECT_EQ(nlohmann::json::parse(a.out)["transformation"], nlohmann::json::parse(b.out)["transformation"]);
+  EXPECT_EQ(nlohmann::json::parse(a.out)["transformation"],
+            nlohmann::json::parse(b.out)["transformation"]);
   EXPECT_EQ(run({"register", scene("scan.ply"), scene("model.ply"), "--ppf-model",
-                 (d / "model.ppf").string()}).code,
+                 (d / "model.ppf").string()})
+                .code,
             code(ExitCode::kUsage));
 }
 
@@ -310,11 +318,12 @@ TEST_F(Cli, GlobalSaysSoWhenNothingMatches) {
   std::string text;
   Random rng(5);
   for (int i = 0; i < 3000; ++i)
-    text += std::to_string(rng.uniform(0, 1000)) + " " + std::to_string(rng.uniform(0, 1000)) + " " +
-            std::to_string(rng.uniform(0, 1000)) + "\n";
+    text += std::to_string(rng.uniform(0, 1000)) + " " + std::to_string(rng.uniform(0, 1000)) +
+            " " + std::to_string(rng.uniform(0, 1000)) + "\n";
   write_text(d / "noise.xyz", text);
-  const CliRun r = run({"register", (d / "noise.xyz").string(), scene("model.ply"), "--init", "global",
-                        "--report", (d / "r.json").string(), "--output", (d / "out.ply").string()});
+  const CliRun r =
+      run({"register", (d / "noise.xyz").string(), scene("model.ply"), "--init", "global",
+           "--report", (d / "r.json").string(), "--output", (d / "out.ply").string()});
   EXPECT_EQ(r.code, code(ExitCode::kNoSolution)) << r.err;
   EXPECT_NE(r.err.find("noise.xyz"), std::string::npos) << r.err;
   EXPECT_FALSE(nlohmann::json::parse(read_text(d / "r.json"))["success"].get<bool>());

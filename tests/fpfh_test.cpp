@@ -119,7 +119,8 @@ TEST(Fpfh, DescriptorStageInvariantOnTheChapterScan) {
   const PointCloud cloud = voxel_downsample(scene.scan, voxel);
   const auto a = describe(cloud, voxel);
   for (double angle : {90.0, 180.0}) {
-    const auto b = describe(transformed(cloud, rigid_transform(angle, {1, -2, 0.5}, {100, 50, -30})), voxel);
+    const auto b =
+        describe(transformed(cloud, rigid_transform(angle, {1, -2, 0.5}, {100, 50, -30})), voxel);
     const auto [share, worst] = agreement(a, b);
     EXPECT_GE(share, 0.97) << angle << " deg; worst L1 difference " << worst;
   }

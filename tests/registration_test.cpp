@@ -1,9 +1,10 @@
 // The default registration (`auto`) against ground truth on the chapter's scene, its harder
 // variants and partial views of non-planar objects (issue #2, "Robust defaults").
+#include "align3d/registration.hpp"
+
 #include <gtest/gtest.h>
 
 #include "align3d/error.hpp"
-#include "align3d/registration.hpp"
 #include "align3d/synth/scenes.hpp"
 #include "test_util.hpp"
 
@@ -39,7 +40,8 @@ INSTANTIATE_TEST_SUITE_P(Variants, ConveyorVariant,
 // On the extreme variant the chapter's median rule locks onto the plane and ends degrees off; the
 // default lands in the right basin (its accuracy is then limited by the tiny features' few points).
 TEST(Registration, DefaultFindsTheBasinWhereTheMedianRuleLocksOntoThePlane) {
-  const synth::Scene scene = synth::make_conveyor_scene(synth::ConveyorSettings::variant("extreme"));
+  const synth::Scene scene =
+      synth::make_conveyor_scene(synth::ConveyorSettings::variant("extreme"));
   RegistrationSettings median;
   median.rejection = RejectionRule::median(2.5, 0.5);
   const RegistrationResult locked = register_clouds(scene.scan, scene.model, kIdentity, median);
@@ -84,8 +86,9 @@ TEST(Registration, DefaultsAreUnitIndependent) {
   EXPECT_LT(rad_to_deg(rotation_angle(a.icp.T_target_source.linear().transpose() *
                                       b.icp.T_target_source.linear())),
             1e-6);
-  EXPECT_LT((a.icp.T_target_source.translation() * 1e-3 - b.icp.T_target_source.translation()).norm(),
-            1e-9);
+  EXPECT_LT(
+      (a.icp.T_target_source.translation() * 1e-3 - b.icp.T_target_source.translation()).norm(),
+      1e-9);
   EXPECT_NEAR(a.icp.rms * 1e-3, b.icp.rms, 1e-9);
 }
 

@@ -32,7 +32,8 @@ class TempDir {
   std::filesystem::path path_;
 };
 
-inline double rotation_error_deg(const Eigen::Isometry3d& estimate, const Eigen::Isometry3d& truth) {
+inline double rotation_error_deg(const Eigen::Isometry3d& estimate,
+                                 const Eigen::Isometry3d& truth) {
   return rad_to_deg(rotation_angle(estimate.linear().transpose() * truth.linear()));
 }
 

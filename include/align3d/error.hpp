@@ -11,12 +11,12 @@ namespace align3d {
 // Exit codes of the `align3d` tool, one per error class.
 enum class ExitCode : int {
   kOk = 0,
-  kInternal = 1,     // a bug: an unexpected exception
-  kUsage = 2,        // bad command line (unknown flag, bad value)
-  kInput = 3,        // a file is missing, unreadable, malformed, truncated or of unknown type
-  kData = 4,         // the data cannot be used: too few points, degenerate geometry, no plane
-  kOutput = 5,       // an output file could not be written
-  kNoSolution = 6,   // registration found no usable solution (too few correspondences)
+  kInternal = 1,    // a bug: an unexpected exception
+  kUsage = 2,       // bad command line (unknown flag, bad value)
+  kInput = 3,       // a file is missing, unreadable, malformed, truncated or of unknown type
+  kData = 4,        // the data cannot be used: too few points, degenerate geometry, no plane
+  kOutput = 5,      // an output file could not be written
+  kNoSolution = 6,  // registration found no usable solution (too few correspondences)
 };
 
 class Error : public std::runtime_error {

@@ -1,5 +1,5 @@
-// Closed-form rigid transform between paired points (Kabsch / Umeyama, chapter 39.1; Arun, Huang and
-// Blostein 1987): minimise Σ wᵢ‖R·pᵢ + t − qᵢ‖² over rotations R (det +1) and translations t.
+// Closed-form rigid transform between paired points (Kabsch / Umeyama, chapter 39.1; Arun, Huang
+// and Blostein 1987): minimise Σ wᵢ‖R·pᵢ + t − qᵢ‖² over rotations R (det +1) and translations t.
 //   p̄, q̄ weighted centroids;  H = Σ wᵢ (pᵢ − p̄)(qᵢ − q̄)ᵀ = U Σ Vᵀ;
 //   R = V·diag(1, 1, d)·Uᵀ with d = sign det(V Uᵀ)  (the reflection guard);  t = q̄ − R·p̄.
 #pragma once
@@ -39,7 +39,8 @@ struct KabschAccumulator {
 Eigen::Isometry3d solve_kabsch(const KabschAccumulator& acc);
 
 // Convenience for paired arrays (same size, >= 1 pair); weights optional (empty = all 1).
-Eigen::Isometry3d kabsch(const std::vector<Eigen::Vector3d>& p, const std::vector<Eigen::Vector3d>& q,
+Eigen::Isometry3d kabsch(const std::vector<Eigen::Vector3d>& p,
+                         const std::vector<Eigen::Vector3d>& q,
                          const std::vector<double>& weights = {});
 
 }  // namespace align3d

@@ -1,5 +1,5 @@
-// Surface normals by PCA of each point's k nearest neighbours (chapter 39.4): the eigenvector of the
-// smallest eigenvalue of the neighbourhood covariance.
+// Surface normals by PCA of each point's k nearest neighbours (chapter 39.4): the eigenvector of
+// the smallest eigenvalue of the neighbourhood covariance.
 //
 // Orientation: a PCA normal has no sign. By default every normal is turned to point toward +Z
 // (n·ẑ >= 0), which suits a sensor looking down on a conveyor; set `viewpoint` to orient toward a
@@ -17,9 +17,9 @@
 namespace align3d {
 
 struct NormalSettings {
-  int k = 20;                                  // neighbours including the point itself; >= 3
-  std::optional<Eigen::Vector3d> viewpoint;    // orient toward this point; default: toward +Z
-  int threads = 0;                             // 0: all cores
+  int k = 20;                                // neighbours including the point itself; >= 3
+  std::optional<Eigen::Vector3d> viewpoint;  // orient toward this point; default: toward +Z
+  int threads = 0;                           // 0: all cores
 };
 
 struct NormalResult {

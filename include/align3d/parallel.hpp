@@ -19,7 +19,8 @@ inline int thread_count(int requested) { return requested > 0 ? requested : omp_
 template <class Body>
 void parallel_for(std::size_t n, int threads, Body&& body) {
 #pragma omp parallel for schedule(static) num_threads(thread_count(threads))
-  for (std::ptrdiff_t i = 0; i < static_cast<std::ptrdiff_t>(n); ++i) body(static_cast<std::size_t>(i));
+  for (std::ptrdiff_t i = 0; i < static_cast<std::ptrdiff_t>(n); ++i)
+    body(static_cast<std::size_t>(i));
 }
 
 // Deterministic reduction: [0, n) is cut into chunks of a size that does not depend on the thread

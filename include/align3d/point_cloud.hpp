@@ -20,7 +20,8 @@ struct PointCloud {
 // T·cloud: positions are transformed rigidly, normals rotated. T must be rigid.
 PointCloud transformed(const PointCloud& cloud, const Eigen::Isometry3d& T);
 
-// Axis-aligned bounding box diagonal length (0 for an empty cloud): the data's natural length scale.
+// Axis-aligned bounding box diagonal length (0 for an empty cloud): the data's natural length
+// scale.
 double bounding_box_diagonal(const PointCloud& cloud);
 
 Eigen::Vector3d centroid(const PointCloud& cloud);

@@ -14,7 +14,7 @@ class Random {
   double uniform() { return static_cast<double>(engine_() >> 11) * 0x1.0p-53; }  // [0, 1)
   double uniform(double lo, double hi) { return lo + (hi - lo) * uniform(); }
   std::uint64_t below(std::uint64_t n) { return n ? engine_() % n : 0; }
-  double normal() {  // Box-Muller; one variate per call keeps the stream simple
+  double normal() {                     // Box-Muller; one variate per call keeps the stream simple
     const double u1 = 1.0 - uniform();  // (0, 1]
     const double u2 = uniform();
     return std::sqrt(-2.0 * std::log(u1)) * std::cos(6.283185307179586 * u2);

@@ -12,8 +12,8 @@
 //   3. once τ is down to 3 s, the requested metric runs to convergence with τ = max(3 s, 4 σ̂)
 //      (σ̂: the point-to-plane RMS of the last stage, i.e. the noise), still weighted.
 // Target normals are computed for `auto` whatever the final metric. Measured on the conveyor
-// variants and partial object views of tests/registration_test.cpp; the point-to-point coarse stages
-// we tried first slid along the plane toward the intruder wall on the wide-plane variant.
+// variants and partial object views of tests/registration_test.cpp; the point-to-point coarse
+// stages we tried first slid along the plane toward the intruder wall on the wide-plane variant.
 #pragma once
 
 #include <Eigen/Geometry>
@@ -33,26 +33,26 @@ struct RegistrationSettings {
   // The cap on ICP iterations: for a fixed rule, of the single run; for `auto`, of the final stage
   // (the coarse stages have their own cap of 30 each).
   int max_iterations = 60;
-  double tolerance = 1e-5;            // |ΔRMS| / RMS below which a run has converged
-  bool tolerance_relative = true;     // false: |ΔRMS| < tolerance in data units (the chapter's rule)
-  bool transform_criterion = true;    // also stop when the update is negligible (termination.hpp)
-  NormalSettings normals;             // for target normals when point-to-plane needs them
+  double tolerance = 1e-5;          // |ΔRMS| / RMS below which a run has converged
+  bool tolerance_relative = true;   // false: |ΔRMS| < tolerance in data units (the chapter's rule)
+  bool transform_criterion = true;  // also stop when the update is negligible (termination.hpp)
+  NormalSettings normals;           // for target normals when point-to-plane needs them
   int threads = 0;
 };
 
 struct StageRecord {
-  std::string metric;      // "point-to-point" or "point-to-plane"
-  double max_distance = 0; // τ of the stage (infinity for none, per-iteration for median)
-  int first_iteration = 0; // index into the combined history
+  std::string metric;       // "point-to-point" or "point-to-plane"
+  double max_distance = 0;  // τ of the stage (infinity for none, per-iteration for median)
+  int first_iteration = 0;  // index into the combined history
   int iterations = 0;
 };
 
 struct RegistrationResult {
-  IcpResult icp;               // the final stage; T_target_source is the answer
+  IcpResult icp;                         // the final stage; T_target_source is the answer
   std::vector<IterationRecord> history;  // every iteration of every stage, in order
   std::vector<StageRecord> stages;
   int total_iterations = 0;
-  double point_spacing = 0;    // the target spacing s used for `auto` (0 otherwise)
+  double point_spacing = 0;  // the target spacing s used for `auto` (0 otherwise)
   std::size_t undefined_normals = 0;
 };
 

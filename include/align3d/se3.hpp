@@ -1,6 +1,6 @@
 // The only Lie-algebra code in align3d. Convention: a twist is (ω, v) with ω a rotation vector
-// (axis · angle, radians) and v a translation; exp((ω, v)) = [exp(ω) | v], i.e. the rotation is taken
-// about the origin of the frame the points are expressed in, matching the small-angle model
+// (axis · angle, radians) and v a translation; exp((ω, v)) = [exp(ω) | v], i.e. the rotation is
+// taken about the origin of the frame the points are expressed in, matching the small-angle model
 // R·p + t ≈ p + ω × p + v of point-to-plane ICP (chapter 39.4).
 #pragma once
 
@@ -50,7 +50,6 @@ inline double rotation_angle(const Eigen::Matrix3d& R) {
   const Eigen::Vector3d axis_sin(R(2, 1) - R(1, 2), R(0, 2) - R(2, 0), R(1, 0) - R(0, 1));
   return std::atan2(0.5 * axis_sin.norm(), 0.5 * (R.trace() - 1.0));
 }
-
 
 // Nearest rotation to M in the Frobenius norm (SVD with the reflection guard).
 Eigen::Matrix3d nearest_rotation(const Eigen::Matrix3d& M);

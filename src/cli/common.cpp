@@ -57,7 +57,8 @@ Eigen::Vector3d parse_vector(const std::string& text, const std::string& flag) {
       throw UsageError(flag + ": expected X,Y,Z (three finite numbers), got '" + text + "'");
     v[i] = x;
   }
-  if (i != 3) throw UsageError(flag + ": expected X,Y,Z (three finite numbers), got '" + text + "'");
+  if (i != 3)
+    throw UsageError(flag + ": expected X,Y,Z (three finite numbers), got '" + text + "'");
   return v;
 }
 

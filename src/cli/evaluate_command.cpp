@@ -21,8 +21,8 @@ struct EvaluateOptions {
 };
 
 constexpr report::EvalMethod kMethods[] = {report::EvalMethod::kPointToPoint,
-                                          report::EvalMethod::kPointToPlane,
-                                          report::EvalMethod::kGlobal};
+                                           report::EvalMethod::kPointToPlane,
+                                           report::EvalMethod::kGlobal};
 
 std::string percent(double x) {
   std::ostringstream s;
@@ -34,8 +34,9 @@ int run_evaluate(const EvaluateOptions& o, Streams io) {
   const auto start = std::chrono::steady_clock::now();
   const int trials = o.quick ? 3 : o.trials;
   const int cell_trials = o.quick ? 1 : o.cell_trials;
-  const std::vector<double> angles =
-      o.quick ? std::vector<double>{0, 90} : std::vector<double>{0, 10, 20, 30, 45, 60, 90, 135, 180};
+  const std::vector<double> angles = o.quick
+                                         ? std::vector<double>{0, 90}
+                                         : std::vector<double>{0, 10, 20, 30, 45, 60, 90, 135, 180};
   const std::vector<double> shifts =
       o.quick ? std::vector<double>{0, 0.25} : std::vector<double>{0, 0.05, 0.1, 0.2, 0.35, 0.5};
   std::error_code ec;
@@ -44,12 +45,14 @@ int run_evaluate(const EvaluateOptions& o, Streams io) {
 
   const auto scenes = report::evaluation_scenes();
   std::ostringstream md;
-  md << "## Success from random initial poses\n\n" << trials
+  md << "## Success from random initial poses\n\n"
+     << trials
      << " seeded trials per row: rotation uniform in [0°, 180°] about a uniform random axis, "
         "translation uniform in [0, ½ diagonal] in a uniform random direction. Success: rotation "
         "error < 1° and translation error < 0.5 % of the model's bounding-box diagonal.\n\n"
         "| scene | method | successes | rate | median time (ms) |\n|---|---|---:|---:|---:|\n";
-  nlohmann::json json = {{"trials", trials}, {"seed", o.seed}, {"success", nlohmann::json::array()}};
+  nlohmann::json json = {
+      {"trials", trials}, {"seed", o.seed}, {"success", nlohmann::json::array()}};
   for (const auto& scene : scenes)
     for (const auto method : kMethods) {
       io.out << "success rate: " << scene.name << ", " << report::to_string(method) << " ... "
@@ -91,14 +94,16 @@ int run_evaluate(const EvaluateOptions& o, Streams io) {
     }
     h.values = b.success;
     panels.push_back(h);
-    md << std::defaultfloat << std::setprecision(6) << "\n" << report::to_string(method) << "\n\n| translation \\ rotation |";
+    md << std::defaultfloat << std::setprecision(6) << "\n"
+       << report::to_string(method) << "\n\n| translation \\ rotation |";
     for (double a : angles) md << " " << a << "° |";
     md << "\n|---|";
     for (std::size_t i = 0; i < angles.size(); ++i) md << "---:|";
     md << "\n";
     for (Eigen::Index r = b.success.rows() - 1; r >= 0; --r) {
       md << "| " << shifts[static_cast<std::size_t>(r)] << " |";
-      for (Eigen::Index c = 0; c < b.success.cols(); ++c) md << " " << percent(b.success(r, c)) << " |";
+      for (Eigen::Index c = 0; c < b.success.cols(); ++c)
+        md << " " << percent(b.success(r, c)) << " |";
       md << "\n";
     }
     json["basin"].push_back({{"method", report::to_string(method)},
@@ -108,7 +113,8 @@ int run_evaluate(const EvaluateOptions& o, Streams io) {
                                 nlohmann::json rows = nlohmann::json::array();
                                 for (Eigen::Index r = 0; r < b.success.rows(); ++r) {
                                   nlohmann::json row = nlohmann::json::array();
-                                  for (Eigen::Index c = 0; c < b.success.cols(); ++c) row.push_back(b.success(r, c));
+                                  for (Eigen::Index c = 0; c < b.success.cols(); ++c)
+                                    row.push_back(b.success(r, c));
                                   rows.push_back(row);
                                 }
                                 return rows;
@@ -118,8 +124,11 @@ int run_evaluate(const EvaluateOptions& o, Streams io) {
   report::write_heatmaps(panels, "Convergence basin on the chapter scene", dir / "basin");
   io::write_text_atomically(dir / "evaluation.md", md.str());
   io::write_text_atomically(dir / "evaluation.json", json.dump(2) + "\n");
-  io.out << "\n" << md.str() << "\nwrote " << o.outdir << "/{evaluation.md,evaluation.json,basin.svg,basin.png} in "
-         << std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() << " s\n";
+  io.out << "\n"
+         << md.str() << "\nwrote " << o.outdir
+         << "/{evaluation.md,evaluation.json,basin.svg,basin.png} in "
+         << std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()
+         << " s\n";
   return 0;
 }
 
@@ -129,7 +138,8 @@ Command add_evaluate(CLI::App& app, Streams io) {
   auto o = std::make_shared<EvaluateOptions>();
   CLI::App* sub = app.add_subcommand(
       "evaluate",
-      "Measure registration from arbitrary starting poses on the chapter scene and two object views:\n"
+      "Measure registration from arbitrary starting poses on the chapter scene and two object "
+      "views:\n"
       "success rates of ICP alone and of global + ICP, and the convergence basin (heat map).\n"
       "The full run takes several minutes; --quick is a smoke test.");
   sub->add_option("OUTDIR", o->outdir, "Output directory")->capture_default_str();

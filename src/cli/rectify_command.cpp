@@ -32,8 +32,9 @@ Command add_rectify(CLI::App& app, Streams io) {
   sub->add_option("CLOUD", o->cloud, "Cloud of a plate or a part on a reference plane")->required();
   sub->add_option("--output", o->output, "Write the levelled cloud");
   sub->add_option("--report", o->report, "Write a JSON report to FILE, or to stdout with -");
-  sub->add_flag("--robust", o->robust,
-                "Find the dominant plane with RANSAC first, then refit on its inliers (clutter-proof)");
+  sub->add_flag(
+      "--robust", o->robust,
+      "Find the dominant plane with RANSAC first, then refit on its inliers (clutter-proof)");
   sub->add_option("--up", o->up, "X,Y,Z: the direction that counts as up (the normal's sign)");
   sub->add_option("--seed", o->seed, "RANSAC seed (with --robust)")->capture_default_str();
   return {sub, [o, io] {
@@ -43,7 +44,8 @@ Command add_rectify(CLI::App& app, Streams io) {
             s.ransac.seed = o->seed;
             if (!o->up.empty()) s.up = parse_vector(o->up, "--up");
             const RectifyResult r = rectify(cloud, s);
-            if (!o->output.empty()) io::write_point_cloud(o->output, transformed(cloud, r.transformation));
+            if (!o->output.empty())
+              io::write_point_cloud(o->output, transformed(cloud, r.transformation));
             nlohmann::json report = rectify_json(r);
             report["points"] = cloud.size();
             if (!o->report.empty()) write_json(o->report, report, io.out);

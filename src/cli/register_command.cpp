@@ -50,7 +50,8 @@ nlohmann::json global_json(const GlobalResult& g) {
 }
 
 // The coarse stage of --init global: a saved PPF model, or a method run on SOURCE and TARGET.
-GlobalResult run_global(const RegisterOptions& o, const PointCloud& source, const PointCloud& target) {
+GlobalResult run_global(const RegisterOptions& o, const PointCloud& source,
+                        const PointCloud& target) {
   GlobalSettings gs;
   gs.method = o.global == "ppf" ? GlobalMethod::kPpf : GlobalMethod::kFpfh;
   gs.voxel = o.voxel;
@@ -62,7 +63,8 @@ GlobalResult run_global(const RegisterOptions& o, const PointCloud& source, cons
   const auto start = std::chrono::steady_clock::now();
   GlobalResult g = ppf_match(model, source, gs);
   g.method = GlobalMethod::kPpf;
-  g.time_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  g.time_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   return g;
 }
 
@@ -104,13 +106,14 @@ int run_register(const RegisterOptions& o, Streams io) {
   const bool global = o.init == "global";
   if (!o.ppf_model.empty() && !(global && o.global == "ppf"))
     throw UsageError("--ppf-model needs --init global --global ppf");
-  Eigen::Isometry3d init = o.init == "identity" || global ? Eigen::Isometry3d::Identity()
-                                                         : io::read_matrix(o.init);
+  Eigen::Isometry3d init =
+      o.init == "identity" || global ? Eigen::Isometry3d::Identity() : io::read_matrix(o.init);
   std::optional<Eigen::Isometry3d> truth;
   if (!o.ground_truth.empty()) truth = io::read_matrix(o.ground_truth);
 
   RegistrationSettings settings;
-  settings.method = o.method == "point-to-point" ? IcpMethod::kPointToPoint : IcpMethod::kPointToPlane;
+  settings.method =
+      o.method == "point-to-point" ? IcpMethod::kPointToPoint : IcpMethod::kPointToPlane;
   if (o.reject != "auto") {
     try {
       settings.rejection = parse_rejection_rule(o.reject);
@@ -124,21 +127,25 @@ int run_register(const RegisterOptions& o, Streams io) {
   settings.threads = o.threads;
 
   const auto start = std::chrono::steady_clock::now();
-  const auto ms = [](auto a, auto b) { return std::chrono::duration<double, std::milli>(b - a).count(); };
+  const auto ms = [](auto a, auto b) {
+    return std::chrono::duration<double, std::milli>(b - a).count();
+  };
   std::optional<GlobalResult> coarse;
   if (global) {
     coarse = run_global(o, source, target);
     if (!coarse->success) {
       // Honest failure: no ICP from a pose without support (it would end with a good-looking fit).
       if (!o.report.empty())
-        write_json(o.report, {{"success", false}, {"converged", false}, {"global", global_json(*coarse)}},
+        write_json(o.report,
+                   {{"success", false}, {"converged", false}, {"global", global_json(*coarse)}},
                    io.out);
-      throw Error(ExitCode::kNoSolution, o.source + ": global registration found no pose: " +
-                                             coarse->message);
+      throw Error(ExitCode::kNoSolution,
+                  o.source + ": global registration found no pose: " + coarse->message);
     }
     if (coarse->ambiguous)
       io.err << "align3d: warning: ambiguous pose (a distinct pose scores " << coarse->second_score
-             << " against " << coarse->score << "; a symmetric part?): see \"global\" in the report\n";
+             << " against " << coarse->score
+             << "; a symmetric part?): see \"global\" in the report\n";
     init = coarse->T_target_source;
   }
   const RegistrationResult r = register_clouds(source, target, init, settings);
@@ -162,11 +169,11 @@ int run_register(const RegisterOptions& o, Streams io) {
   if (o.report != "-") {
     auto& out = io.out;
     out << std::setprecision(6) << std::fixed;
-    out << "registered " << o.source << " (" << source.size() << " points) onto " << o.target << " ("
-        << target.size() << " points)\n";
-    out << "  converged: " << (r.icp.converged ? "yes" : "no") << " (" << to_string(r.icp.stop_reason)
-        << ") after " << r.total_iterations << " iterations, " << std::setprecision(1)
-        << report["timing_ms"]["total"].get<double>() << " ms\n";
+    out << "registered " << o.source << " (" << source.size() << " points) onto " << o.target
+        << " (" << target.size() << " points)\n";
+    out << "  converged: " << (r.icp.converged ? "yes" : "no") << " ("
+        << to_string(r.icp.stop_reason) << ") after " << r.total_iterations << " iterations, "
+        << std::setprecision(1) << report["timing_ms"]["total"].get<double>() << " ms\n";
     if (coarse)
       out << "  global (" << to_string(coarse->method) << "): overlap " << coarse->overlap << ", "
           << coarse->candidates << " candidates, " << std::setprecision(1) << coarse->time_ms
@@ -174,7 +181,8 @@ int run_register(const RegisterOptions& o, Streams io) {
     out << std::setprecision(6) << "  rms " << r.icp.rms << ", fitness " << r.icp.fitness << " ("
         << r.icp.correspondences << " pairs)\n";
     out << "  rotation " << report["rotation_deg"].get<double>() << " deg, translation ["
-        << T.translation().x() << ", " << T.translation().y() << ", " << T.translation().z() << "]\n";
+        << T.translation().x() << ", " << T.translation().y() << ", " << T.translation().z()
+        << "]\n";
     if (truth)
       out << "  error vs ground truth: rotation " << report["rotation_error_deg"].get<double>()
           << " deg, translation " << report["translation_error"].get<double>() << "\n";
@@ -186,8 +194,9 @@ int run_register(const RegisterOptions& o, Streams io) {
   }
   if (failed)
     throw Error(ExitCode::kNoSolution,
-                o.source + ": registration failed: too few correspondences within the rejection "
-                           "threshold (try --reject auto or a larger distance)");
+                o.source +
+                    ": registration failed: too few correspondences within the rejection "
+                    "threshold (try --reject auto or a larger distance)");
   if (!r.icp.converged)
     io.err << "align3d: warning: did not converge (" << to_string(r.icp.stop_reason)
            << "); the pose may be inaccurate\n";
@@ -200,7 +209,8 @@ Command add_register(CLI::App& app, Streams io) {
   auto o = std::make_shared<RegisterOptions>();
   CLI::App* sub = app.add_subcommand(
       "register",
-      "Register SOURCE (the measured scan) onto TARGET (the model): prints T with target ≈ T·source.\n"
+      "Register SOURCE (the measured scan) onto TARGET (the model): prints T with target ≈ "
+      "T·source.\n"
       "Default: the robust coarse-to-fine schedule (--reject auto) ending in point-to-plane ICP.");
   sub->add_option("SOURCE", o->source, "Source cloud (.ply .pcd .xyz .txt .csv), moved onto TARGET")
       ->required();
@@ -237,12 +247,14 @@ Command add_register(CLI::App& app, Streams io) {
                   "Iteration cap (with auto: of the final stage; coarse stages cap at 30 each)")
       ->check(CLI::Range(1, 100000))
       ->capture_default_str();
-  sub->add_option("--tolerance", o->tolerance,
-                  "Stop when |ΔRMS| < EPS·RMS between iterations (relative, so unit-free); ICP also "
-                  "stops when an update is negligible")
+  sub->add_option(
+         "--tolerance", o->tolerance,
+         "Stop when |ΔRMS| < EPS·RMS between iterations (relative, so unit-free); ICP also "
+         "stops when an update is negligible")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
-  sub->add_option("--output", o->output, "Write SOURCE moved into TARGET's frame (binary PLY or by extension)");
+  sub->add_option("--output", o->output,
+                  "Write SOURCE moved into TARGET's frame (binary PLY or by extension)");
   sub->add_option("--report", o->report, "Write a JSON report to FILE, or to stdout with -");
   sub->add_option("--ground-truth", o->ground_truth,
                   "4x4 matrix file of the true T; adds rotation_error_deg and translation_error");

@@ -48,29 +48,46 @@ nlohmann::json write_scene(const std::filesystem::path& outdir, std::uint64_t se
       {"units", "mm"},
       {"seed", seed},
       {"variant", variant},
-      {"model", {{"file", "model.ply"}, {"points", scene.model.size()},
-                 {"plane_size", {cs.plane_x, cs.plane_y}},
-                 {"box", {{"base_centre", to_json(cs.box_centre)}, {"size", to_json(cs.box_size)}}},
-                 {"cap", {{"centre", {cs.cap_centre.x(), cs.cap_centre.y()}},
-                          {"sphere_radius", cs.cap_radius}, {"height", cs.cap_height}}}}},
-      {"scan", {{"file", "scan.ply"}, {"points", scene.scan.size()},
-                {"from_model", scene.scan_corresponding}, {"no_correspondence", scene.scan_outliers},
-                {"no_correspondence_percent",
-                 100.0 * static_cast<double>(scene.scan_outliers) / static_cast<double>(scene.scan.size())},
-                {"rotation_deg", cs.rotation_deg}, {"rotation_axis", to_json(cs.rotation_axis)},
-                {"translation", to_json(cs.translation)}, {"noise_sigma", cs.noise_sigma},
-                {"crop", "the left side (smallest x in the scanner frame) is cropped away"},
-                {"wall", {{"gap", cs.wall_gap}, {"height", cs.wall_height}}}}},
-      {"ground_truth", {{"file", "ground_truth.txt"},
-                        {"meaning", "maps scan into the model frame: model ≈ T·scan"},
-                        {"transformation", to_json(scene.T_model_scan)}}},
-      {"plate", {{"file", "plate.ply"}, {"points", plate.cloud.size()}, {"tilt_deg", ps.tilt_deg},
-                 {"tilt_axis", to_json(ps.tilt_axis)}, {"noise_sigma", ps.noise_sigma},
-                 {"true_normal", to_json(plate.true_normal)}}},
-      {"plate_cluttered", {{"file", "plate_cluttered.ply"}, {"points", cluttered.cloud.size()},
-                           {"plate_points", cluttered.plate_points},
-                           {"clutter_fraction", cps.clutter_fraction}, {"tilt_deg", cps.tilt_deg},
-                           {"true_normal", to_json(cluttered.true_normal)}}}};
+      {"model",
+       {{"file", "model.ply"},
+        {"points", scene.model.size()},
+        {"plane_size", {cs.plane_x, cs.plane_y}},
+        {"box", {{"base_centre", to_json(cs.box_centre)}, {"size", to_json(cs.box_size)}}},
+        {"cap",
+         {{"centre", {cs.cap_centre.x(), cs.cap_centre.y()}},
+          {"sphere_radius", cs.cap_radius},
+          {"height", cs.cap_height}}}}},
+      {"scan",
+       {{"file", "scan.ply"},
+        {"points", scene.scan.size()},
+        {"from_model", scene.scan_corresponding},
+        {"no_correspondence", scene.scan_outliers},
+        {"no_correspondence_percent",
+         100.0 * static_cast<double>(scene.scan_outliers) / static_cast<double>(scene.scan.size())},
+        {"rotation_deg", cs.rotation_deg},
+        {"rotation_axis", to_json(cs.rotation_axis)},
+        {"translation", to_json(cs.translation)},
+        {"noise_sigma", cs.noise_sigma},
+        {"crop", "the left side (smallest x in the scanner frame) is cropped away"},
+        {"wall", {{"gap", cs.wall_gap}, {"height", cs.wall_height}}}}},
+      {"ground_truth",
+       {{"file", "ground_truth.txt"},
+        {"meaning", "maps scan into the model frame: model ≈ T·scan"},
+        {"transformation", to_json(scene.T_model_scan)}}},
+      {"plate",
+       {{"file", "plate.ply"},
+        {"points", plate.cloud.size()},
+        {"tilt_deg", ps.tilt_deg},
+        {"tilt_axis", to_json(ps.tilt_axis)},
+        {"noise_sigma", ps.noise_sigma},
+        {"true_normal", to_json(plate.true_normal)}}},
+      {"plate_cluttered",
+       {{"file", "plate_cluttered.ply"},
+        {"points", cluttered.cloud.size()},
+        {"plate_points", cluttered.plate_points},
+        {"clutter_fraction", cps.clutter_fraction},
+        {"tilt_deg", cps.tilt_deg},
+        {"true_normal", to_json(cluttered.true_normal)}}}};
   write_json((outdir / "scene.json").string(), json, std::cout);
   return json;
 }
@@ -91,10 +108,11 @@ Command add_synth(CLI::App& app, Streams io) {
       ->capture_default_str();
   return {sub, [o, io] {
             const nlohmann::json j = write_scene(o->outdir, o->seed, o->variant);
-            io.out << "wrote " << o->outdir << ": model " << j["model"]["points"] << " points, scan "
-                   << j["scan"]["points"] << " points (" << j["scan"]["no_correspondence"]
-                   << " without correspondence), plates " << j["plate"]["points"] << " and "
-                   << j["plate_cluttered"]["points"] << " points\n";
+            io.out << "wrote " << o->outdir << ": model " << j["model"]["points"]
+                   << " points, scan " << j["scan"]["points"] << " points ("
+                   << j["scan"]["no_correspondence"] << " without correspondence), plates "
+                   << j["plate"]["points"] << " and " << j["plate_cluttered"]["points"]
+                   << " points\n";
             return 0;
           }};
 }

@@ -1,5 +1,4 @@
 #include "align3d/coarse/global.hpp"
-
 #include "align3d/kdtree.hpp"
 #include "align3d/parallel.hpp"
 

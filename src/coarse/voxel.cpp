@@ -37,8 +37,9 @@ PointCloud voxel_downsample(const PointCloud& cloud, double voxel) {
       if (normals) nsum += cloud.normals[order[end].second];
     }
     out.positions.push_back(sum / static_cast<double>(end - begin));
-    if (normals) out.normals.push_back(nsum.norm() > 0 ? Eigen::Vector3d(nsum.normalized())
-                                                       : cloud.normals[order[begin].second]);
+    if (normals)
+      out.normals.push_back(nsum.norm() > 0 ? Eigen::Vector3d(nsum.normalized())
+                                            : cloud.normals[order[begin].second]);
     begin = end;
   }
   return out;

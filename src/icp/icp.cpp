@@ -20,14 +20,13 @@ struct Correspondences {
   std::vector<double> distance;  // true distance
 };
 
-void find_correspondences(const PointCloud& source, const KdTree& tree,
-                          const Eigen::Isometry3d& T, double bound, int threads,
-                          Correspondences& out) {
+void find_correspondences(const PointCloud& source, const KdTree& tree, const Eigen::Isometry3d& T,
+                          double bound, int threads, Correspondences& out) {
   const std::size_t n = source.size();
   out.target.resize(n);
   out.distance.resize(n);
-  const double sq_bound = std::isfinite(bound) ? bound * bound * (1 + 1e-12)
-                                               : std::numeric_limits<double>::infinity();
+  const double sq_bound =
+      std::isfinite(bound) ? bound * bound * (1 + 1e-12) : std::numeric_limits<double>::infinity();
   parallel_for(n, threads, [&](std::size_t i) {
     Neighbor nb;
     if (tree.nearest(T * source.positions[i], nb, sq_bound)) {
@@ -68,7 +67,8 @@ struct PairTotals {
 template <class Sums, class Add>
 PairTotals<Sums> reduce_pairs(const PointCloud& source, const PointCloud& target,
                               const Correspondences& c, const Eigen::Isometry3d& T,
-                              const Eigen::Vector3d& centre, double threshold, int threads, Add add) {
+                              const Eigen::Vector3d& centre, double threshold, int threads,
+                              Add add) {
   return parallel_reduce(
       source.size(), threads, PairTotals<Sums>{},
       [&](PairTotals<Sums>& a, std::size_t i) {
@@ -97,13 +97,13 @@ Step solve_step(const PointCloud& source, const PointCloud& target, const Corres
     step.solvable = totals.kept >= min_pairs;
   };
   if (s.method == IcpMethod::kPointToPoint) {
-    const auto totals = reduce_pairs<KabschAccumulator>(
-        source, target, c, T, centre, threshold, s.threads,
-        [&](KabschAccumulator& sums, const Eigen::Vector3d& p, const Eigen::Vector3d& q, std::size_t,
-            double d) {
-          sums.add(p, q, weight(d));
-          return d * d;
-        });
+    const auto totals =
+        reduce_pairs<KabschAccumulator>(source, target, c, T, centre, threshold, s.threads,
+                                        [&](KabschAccumulator& sums, const Eigen::Vector3d& p,
+                                            const Eigen::Vector3d& q, std::size_t, double d) {
+                                          sums.add(p, q, weight(d));
+                                          return d * d;
+                                        });
     finish(totals, 3);
     if (step.solvable) step.delta = solve_kabsch(totals.sums);
     return step;
@@ -178,8 +178,7 @@ IcpResult icp(const PointCloud& source, const PointCloud& target, const KdTree& 
       stopped = true;
       break;
     }
-    const double rms_tolerance =
-        term.rms_change * (term.rms_change_relative ? previous_rms : 1.0);
+    const double rms_tolerance = term.rms_change * (term.rms_change_relative ? previous_rms : 1.0);
     if (std::abs(step.rms - previous_rms) < rms_tolerance) {
       result.stop_reason = StopReason::kRmsChange;
       stopped = true;
@@ -198,13 +197,15 @@ IcpResult icp(const PointCloud& source, const PointCloud& target, const KdTree& 
   // Final evaluation at the returned pose.
   find_correspondences(source, tree, result.T_target_source, s.rejection.search_bound(), s.threads,
                        c);
-  if (result.stop_reason != StopReason::kTooFewCorrespondences) threshold = threshold_for(s.rejection, c);
-  const Step final_step = solve_step(source, target, c, result.T_target_source, centre, threshold, s);
+  if (result.stop_reason != StopReason::kTooFewCorrespondences)
+    threshold = threshold_for(s.rejection, c);
+  const Step final_step =
+      solve_step(source, target, c, result.T_target_source, centre, threshold, s);
   result.rms = final_step.rms;
   result.correspondences = final_step.kept;
-  result.fitness = source.empty() ? 0.0
-                                  : static_cast<double>(final_step.kept) /
-                                        static_cast<double>(source.size());
+  result.fitness = source.empty()
+                       ? 0.0
+                       : static_cast<double>(final_step.kept) / static_cast<double>(source.size());
   result.converged = is_convergence(result.stop_reason) && final_step.kept >= min_pairs;
   return result;
 }

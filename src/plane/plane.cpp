@@ -11,10 +11,13 @@
 
 namespace align3d {
 
-Plane fit_plane(const std::vector<Eigen::Vector3d>& points, const std::vector<std::size_t>* indices) {
+Plane fit_plane(const std::vector<Eigen::Vector3d>& points,
+                const std::vector<std::size_t>* indices) {
   const std::size_t n = indices ? indices->size() : points.size();
   if (n < 3) throw DataError(std::to_string(n) + " points define no plane (need at least 3)");
-  auto at = [&](std::size_t i) -> const Eigen::Vector3d& { return points[indices ? (*indices)[i] : i]; };
+  auto at = [&](std::size_t i) -> const Eigen::Vector3d& {
+    return points[indices ? (*indices)[i] : i];
+  };
   Eigen::Vector3d mean = Eigen::Vector3d::Zero();
   for (std::size_t i = 0; i < n; ++i) mean += at(i);
   mean /= static_cast<double>(n);
@@ -80,7 +83,8 @@ RansacPlaneResult ransac_plane(const std::vector<Eigen::Vector3d>& points,
     result.plane = fit_plane(points, &result.inliers);
     std::vector<double> residuals;
     residuals.reserve(result.inliers.size());
-    for (std::size_t i : result.inliers) residuals.push_back(std::abs(result.plane.signed_distance(points[i])));
+    for (std::size_t i : result.inliers)
+      residuals.push_back(std::abs(result.plane.signed_distance(points[i])));
     const double sigma = 1.4826 * median_abs(residuals);
     auto next = within(points, result.plane, std::max(3 * sigma, threshold / 10));
     if (next.size() < 3) break;

@@ -68,7 +68,8 @@ double part_side(const std::vector<Eigen::Vector3d>& points, const Plane& plane,
     above += d > 0;
     below += d < 0;
   }
-  if (static_cast<double>(above + below) <= 0.005 * static_cast<double>(points.size()) || above == below)
+  if (static_cast<double>(above + below) <= 0.005 * static_cast<double>(points.size()) ||
+      above == below)
     return 0.0;
   return above > below ? 1.0 : -1.0;
 }

@@ -55,23 +55,22 @@ std::vector<Row> table_rows(const ChapterResults& r) {
     return rows;
   };
   std::vector<Row> rows;
-  for (auto part : {icp_rows(r.p2p_good, "point-to-point, identity init", "58", "0.6443", "10.69",
-                             "1.97", "0.233"),
-                    icp_rows(r.p2p_bad, "point-to-point, bad init (+40° about Z)", "60", "2.0824", "",
-                             "29.3", "8.20"),
-                    icp_rows(r.p2plane, "point-to-plane, identity init", "9", "0.0991", "", "0.016",
-                             "0.005"),
-                    icp_rows(r.robust, "align3d register defaults (auto), identity init", "—", "—",
-                             "", "—", "—"),
-                    icp_rows(r.global, "bad init + global (fpfh) + point-to-plane", "—", "—", "",
-                             "—", "—")})
+  for (auto part :
+       {icp_rows(r.p2p_good, "point-to-point, identity init", "58", "0.6443", "10.69", "1.97",
+                 "0.233"),
+        icp_rows(r.p2p_bad, "point-to-point, bad init (+40° about Z)", "60", "2.0824", "", "29.3",
+                 "8.20"),
+        icp_rows(r.p2plane, "point-to-plane, identity init", "9", "0.0991", "", "0.016", "0.005"),
+        icp_rows(r.robust, "align3d register defaults (auto), identity init", "—", "—", "", "—",
+                 "—"),
+        icp_rows(r.global, "bad init + global (fpfh) + point-to-plane", "—", "—", "", "—", "—")})
     rows.insert(rows.end(), part.begin(), part.end());
   rows.push_back({"bad init + global (fpfh) + point-to-plane", "coarse stage time (ms)", "—",
                   r.global_coarse.time_ms, 0});
   rows.push_back({"plane correction, tilted plate", "tilt before (deg)", "6.9999",
                   r.plate.tilt_before_deg, 4});
-  rows.push_back({"plane correction, tilted plate", "tilt after (deg)", "0.0000",
-                  r.plate.tilt_after_deg, 4});
+  rows.push_back(
+      {"plane correction, tilted plate", "tilt after (deg)", "0.0000", r.plate.tilt_after_deg, 4});
   rows.push_back({"cluttered plate (20 % clutter), plain LSQ fit", "normal error (deg)", "—",
                   r.cluttered_plain_error_deg, 3});
   rows.push_back({"cluttered plate (20 % clutter), --robust", "normal error (deg)", "—",
@@ -87,7 +86,8 @@ std::string format(double v, int digits) {
   return s.str();
 }
 
-std::vector<Eigen::Vector2d> view(const PointCloud& cloud, const Eigen::Isometry3d& T, int a, int b) {
+std::vector<Eigen::Vector2d> view(const PointCloud& cloud, const Eigen::Isometry3d& T, int a,
+                                  int b) {
   std::vector<Eigen::Vector2d> out;
   out.reserve(cloud.size());
   for (const auto& p : cloud.positions) {
@@ -145,8 +145,9 @@ nlohmann::json icp_json(const IcpExperiment& e) {
     history.push_back({{"rms", h.rms}, {"kept", h.kept}, {"threshold", h.threshold}});
   nlohmann::json T = nlohmann::json::array();
   for (int r = 0; r < 4; ++r)
-    T.push_back({e.result.icp.T_target_source.matrix()(r, 0), e.result.icp.T_target_source.matrix()(r, 1),
-                 e.result.icp.T_target_source.matrix()(r, 2), e.result.icp.T_target_source.matrix()(r, 3)});
+    T.push_back(
+        {e.result.icp.T_target_source.matrix()(r, 0), e.result.icp.T_target_source.matrix()(r, 1),
+         e.result.icp.T_target_source.matrix()(r, 2), e.result.icp.T_target_source.matrix()(r, 3)});
   return {{"name", e.name},
           {"iterations", e.result.total_iterations},
           {"converged", e.result.icp.converged},
@@ -180,8 +181,10 @@ ChapterScene generate_chapter_scene(std::uint64_t seed) {
   cps.seed = seed + 2;
   cps.clutter_fraction = 0.2;
   const synth::Plate cluttered = synth::make_plate(cps);
-  return {s.model, s.scan, s.T_model_scan, synth::make_plate(ps).cloud, cluttered.cloud,
-          cluttered.true_normal, cs.noise_sigma};
+  return {s.model,         s.scan,
+          s.T_model_scan,  synth::make_plate(ps).cloud,
+          cluttered.cloud, cluttered.true_normal,
+          cs.noise_sigma};
 }
 
 ChapterScene read_chapter_scene(const std::filesystem::path& dir) {
@@ -196,7 +199,8 @@ ChapterScene read_chapter_scene(const std::filesystem::path& dir) {
   if (!meta.is_discarded()) {
     const auto normal = meta.value("/plate_cluttered/true_normal"_json_pointer, nlohmann::json());
     if (normal.is_array() && normal.size() == 3)
-      scene.cluttered_true_normal = {normal[0].get<double>(), normal[1].get<double>(), normal[2].get<double>()};
+      scene.cluttered_true_normal = {normal[0].get<double>(), normal[1].get<double>(),
+                                     normal[2].get<double>()};
     scene.noise_sigma = meta.value("/scan/noise_sigma"_json_pointer, scene.noise_sigma);
   }
   return scene;
@@ -225,11 +229,11 @@ ChapterResults run_chapter_experiments(const ChapterScene& scene, int threads) {
   defaults.threads = threads;
 
   ChapterResults r;
-  r.p2p_good = run_icp(scene, "point-to-point, identity init", identity,
-                       settings(IcpMethod::kPointToPoint));
+  r.p2p_good =
+      run_icp(scene, "point-to-point, identity init", identity, settings(IcpMethod::kPointToPoint));
   r.p2p_bad = run_icp(scene, "point-to-point, bad init", bad, settings(IcpMethod::kPointToPoint));
-  r.p2plane = run_icp(scene, "point-to-plane, identity init", identity,
-                      settings(IcpMethod::kPointToPlane));
+  r.p2plane =
+      run_icp(scene, "point-to-plane, identity init", identity, settings(IcpMethod::kPointToPlane));
   r.robust = run_icp(scene, "register defaults (auto), identity init", identity, defaults);
   // The remedy: the scan as the bad initial value leaves it, registered globally, then refined.
   // (The coarse stage ignores the initial value, so it sees the scan moved by the bad pose.)
@@ -268,15 +272,22 @@ void write_chapter_report(const ChapterScene& scene, const ChapterResults& r,
 
   nlohmann::json rows = nlohmann::json::array();
   for (const Row& row : table_rows(r))
-    rows.push_back({{"experiment", row.experiment}, {"quantity", row.quantity},
-                    {"chapter", row.chapter}, {"ours", row.ours}});
+    rows.push_back({{"experiment", row.experiment},
+                    {"quantity", row.quantity},
+                    {"chapter", row.chapter},
+                    {"ours", row.ours}});
   const nlohmann::json results = {
       {"table", rows},
-      {"icp", {icp_json(r.p2p_good), icp_json(r.p2p_bad), icp_json(r.p2plane), icp_json(r.robust),
-               icp_json(r.global)}},
-      {"global", {{"success", r.global_coarse.success}, {"time_ms", r.global_coarse.time_ms},
-                  {"overlap", r.global_coarse.overlap}, {"candidates", r.global_coarse.candidates},
-                  {"ambiguous", r.global_coarse.ambiguous}, {"message", r.global_coarse.message}}},
+      {"icp",
+       {icp_json(r.p2p_good), icp_json(r.p2p_bad), icp_json(r.p2plane), icp_json(r.robust),
+        icp_json(r.global)}},
+      {"global",
+       {{"success", r.global_coarse.success},
+        {"time_ms", r.global_coarse.time_ms},
+        {"overlap", r.global_coarse.overlap},
+        {"candidates", r.global_coarse.candidates},
+        {"ambiguous", r.global_coarse.ambiguous},
+        {"message", r.global_coarse.message}}},
       {"rectify",
        {{"plate", rectify_summary(r.plate)},
         {"cluttered_plain", rectify_summary(r.cluttered_plain)},
@@ -294,48 +305,67 @@ void write_chapter_report(const ChapterScene& scene, const ChapterResults& r,
   };
   std::vector<Named> figures;
   figures.push_back(
-      {"fig39_1", "Figure 39.1: initial poses, XZ side view. Model blue, scan red; the isolated red wall on the right exists only in the scan.",
+      {"fig39_1",
+       "Figure 39.1: initial poses, XZ side view. Model blue, scan red; the isolated red wall on "
+       "the right exists only in the scan.",
        side_view("Fig. 39.1  Initial poses (XZ orthographic side view)",
                  {{"model (target)", kBlue, model_xz, false, 1.2, 0.6},
                   {"scan (source)", kRed, view(scene.scan, I, 0, 2), false, 1.2, 0.6}})});
-  figures.push_back(
-      {"fig39_2", "Figure 39.2: after point-to-point ICP from the identity; the intruder wall is rejected and stays where it was.",
-       side_view("Fig. 39.2  After point-to-point ICP, good initial value",
-                 {{"model", kBlue, model_xz, false, 1.2, 0.6},
-                  {"scan, aligned", kRed, view(scene.scan, r.p2p_good.result.icp.T_target_source, 0, 2),
-                   false, 1.2, 0.6}})});
+  figures.push_back({"fig39_2",
+                     "Figure 39.2: after point-to-point ICP from the identity; the intruder wall "
+                     "is rejected and stays where it was.",
+                     side_view("Fig. 39.2  After point-to-point ICP, good initial value",
+                               {{"model", kBlue, model_xz, false, 1.2, 0.6},
+                                {"scan, aligned", kRed,
+                                 view(scene.scan, r.p2p_good.result.icp.T_target_source, 0, 2),
+                                 false, 1.2, 0.6}})});
   Figure curves;
   curves.title = "Fig. 39.3  RMS per iteration";
   curves.x_label = "iteration";
   curves.y_label = "RMS of kept pairs (mm)";
   curves.log_y = true;
-  curves.series = {{"point-to-point, good init", kRed, rms_curve(r.p2p_good), true, 2.0, 1.0},
-                   {"point-to-point, bad init (+40° Z)", kGreen, rms_curve(r.p2p_bad), true, 2.0, 1.0},
-                   {"point-to-plane, good init", kBlue, rms_curve(r.p2plane), true, 2.0, 1.0},
-                   {"bad init + global + point-to-plane", kPurple, rms_curve(r.global), true, 2.0, 1.0}};
+  curves.series = {
+      {"point-to-point, good init", kRed, rms_curve(r.p2p_good), true, 2.0, 1.0},
+      {"point-to-point, bad init (+40° Z)", kGreen, rms_curve(r.p2p_bad), true, 2.0, 1.0},
+      {"point-to-plane, good init", kBlue, rms_curve(r.p2plane), true, 2.0, 1.0},
+      {"bad init + global + point-to-plane", kPurple, rms_curve(r.global), true, 2.0, 1.0}};
   std::ostringstream floor_label;
   floor_label << "noise floor σ = " << scene.noise_sigma << " mm";
   curves.lines = {{scene.noise_sigma, floor_label.str(), kGray, true}};
-  figures.push_back({"fig39_3", "Figure 39.3: RMS convergence. Red: point-to-point, good init; green: point-to-point, bad init; blue: point-to-plane; purple: bad init + global registration + point-to-plane.", curves});
   figures.push_back(
-      {"fig39_4", "Figure 39.4: point-to-point ICP from the bad initial value (+40° about Z) ends in a wrong local minimum.",
-       side_view("Fig. 39.4  Bad initial value: point-to-point ICP in a wrong minimum",
-                 {{"model", kBlue, model_xz, false, 1.2, 0.6},
-                  {"scan, converged (wrong)", kGreen,
-                   view(scene.scan, r.p2p_bad.result.icp.T_target_source, 0, 2), false, 1.2, 0.6}})});
-  Figure plate = side_view("Fig. 39.5  Plane correction (YZ orthographic side view)",
-                           {{"tilted plate", kRed, view(scene.plate, I, 1, 2), false, 1.2, 0.6},
-                            {"corrected", kGreen, view(scene.plate, r.plate.transformation, 1, 2),
-                             false, 1.2, 0.6}});
+      {"fig39_3",
+       "Figure 39.3: RMS convergence. Red: point-to-point, good init; green: point-to-point, bad "
+       "init; blue: point-to-plane; purple: bad init + global registration + point-to-plane.",
+       curves});
+  figures.push_back(
+      {"fig39_4",
+       "Figure 39.4: point-to-point ICP from the bad initial value (+40° about Z) ends in a wrong "
+       "local minimum.",
+       side_view(
+           "Fig. 39.4  Bad initial value: point-to-point ICP in a wrong minimum",
+           {{"model", kBlue, model_xz, false, 1.2, 0.6},
+            {"scan, converged (wrong)", kGreen,
+             view(scene.scan, r.p2p_bad.result.icp.T_target_source, 0, 2), false, 1.2, 0.6}})});
+  Figure plate = side_view(
+      "Fig. 39.5  Plane correction (YZ orthographic side view)",
+      {{"tilted plate", kRed, view(scene.plate, I, 1, 2), false, 1.2, 0.6},
+       {"corrected", kGreen, view(scene.plate, r.plate.transformation, 1, 2), false, 1.2, 0.6}});
   plate.x_label = "y (mm)";
   plate.lines = {{0.0, "z = 0", kGray, false}};
-  figures.push_back({"fig39_5", "Figure 39.5: plane correction. Red: the 7° tilted plate; green: levelled onto z = 0 (gray).", plate});
+  figures.push_back({"fig39_5",
+                     "Figure 39.5: plane correction. Red: the 7° tilted plate; green: levelled "
+                     "onto z = 0 (gray).",
+                     plate});
   figures.push_back(
-      {"fig39_6", "Figure 39.6 (beyond the chapter): the remedy of section 39.3. From the same bad initial value, global registration (FPFH + RANSAC) finds the basin and point-to-plane ICP refines it.",
-       side_view("Fig. 39.6  Bad initial value + global registration + point-to-plane ICP",
-                 {{"model", kBlue, model_xz, false, 1.2, 0.6},
-                  {"scan, aligned", kPurple, view(scene.scan, r.global.result.icp.T_target_source, 0, 2),
-                   false, 1.2, 0.6}})});
+      {"fig39_6",
+       "Figure 39.6 (beyond the chapter): the remedy of section 39.3. From the same bad initial "
+       "value, global registration (FPFH + RANSAC) finds the basin and point-to-plane ICP refines "
+       "it.",
+       side_view(
+           "Fig. 39.6  Bad initial value + global registration + point-to-plane ICP",
+           {{"model", kBlue, model_xz, false, 1.2, 0.6},
+            {"scan, aligned", kPurple, view(scene.scan, r.global.result.icp.T_target_source, 0, 2),
+             false, 1.2, 0.6}})});
 
   std::ostringstream html;
   html << "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>align3d: chapter 39 "

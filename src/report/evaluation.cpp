@@ -33,9 +33,12 @@ Random trial_rng(std::uint64_t seed, std::uint64_t k) {
 
 const char* to_string(EvalMethod m) {
   switch (m) {
-    case EvalMethod::kPointToPoint: return "point-to-point ICP";
-    case EvalMethod::kPointToPlane: return "point-to-plane ICP";
-    case EvalMethod::kGlobal: return "global (fpfh) + point-to-plane ICP";
+    case EvalMethod::kPointToPoint:
+      return "point-to-point ICP";
+    case EvalMethod::kPointToPlane:
+      return "point-to-plane ICP";
+    case EvalMethod::kGlobal:
+      return "global (fpfh) + point-to-plane ICP";
   }
   return "?";
 }
@@ -62,8 +65,8 @@ TrialResult run_trial(const EvalScene& scene, EvalMethod method, double angle_de
 
   const auto start = std::chrono::steady_clock::now();
   RegistrationSettings settings;
-  settings.method = method == EvalMethod::kPointToPoint ? IcpMethod::kPointToPoint
-                                                        : IcpMethod::kPointToPlane;
+  settings.method =
+      method == EvalMethod::kPointToPoint ? IcpMethod::kPointToPoint : IcpMethod::kPointToPlane;
   Eigen::Isometry3d init = Eigen::Isometry3d::Identity();
   TrialResult r;
   if (method == EvalMethod::kGlobal) {
@@ -71,7 +74,9 @@ TrialResult run_trial(const EvalScene& scene, EvalMethod method, double angle_de
     gs.seed = seed;
     const GlobalResult g = global_register(moved, scene.target, gs);
     if (!g.success) {
-      r.time_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+      r.time_ms =
+          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+              .count();
       r.rotation_error_deg = 180;
       r.translation_error = 1e300;
       return r;
@@ -79,7 +84,8 @@ TrialResult run_trial(const EvalScene& scene, EvalMethod method, double angle_de
     init = g.T_target_source;
   }
   const RegistrationResult reg = register_clouds(moved, scene.target, init, settings);
-  r.time_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  r.time_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   const Eigen::Isometry3d& T = reg.icp.T_target_source;
   r.rotation_error_deg = rad_to_deg(rotation_angle(T.linear().transpose() * truth.linear()));
   r.translation_error = (T.translation() - truth.translation()).norm();
@@ -97,19 +103,22 @@ SuccessRow success_rate(const EvalScene& scene, EvalMethod method, int trials, s
     const double angle = rng.uniform(0, 180);
     const Eigen::Vector3d axis = random_unit(rng);
     const Eigen::Vector3d t = random_unit(rng) * rng.uniform(0, half_diagonal);
-    const TrialResult r = run_trial(scene, method, angle, axis, t, seed + static_cast<std::uint64_t>(k));
+    const TrialResult r =
+        run_trial(scene, method, angle, axis, t, seed + static_cast<std::uint64_t>(k));
     row.successes += r.success;
     row.worst_rotation_error_deg = std::max(row.worst_rotation_error_deg, r.rotation_error_deg);
     times.push_back(r.time_ms);
   }
   if (!times.empty()) {
-    std::nth_element(times.begin(), times.begin() + static_cast<std::ptrdiff_t>(times.size() / 2), times.end());
+    std::nth_element(times.begin(), times.begin() + static_cast<std::ptrdiff_t>(times.size() / 2),
+                     times.end());
     row.median_time_ms = times[times.size() / 2];
   }
   return row;
 }
 
-Basin convergence_basin(const EvalScene& scene, EvalMethod method, const std::vector<double>& angles_deg,
+Basin convergence_basin(const EvalScene& scene, EvalMethod method,
+                        const std::vector<double>& angles_deg,
                         const std::vector<double>& translation_fractions, int trials_per_cell,
                         std::uint64_t seed) {
   Basin basin{angles_deg, translation_fractions, trials_per_cell,

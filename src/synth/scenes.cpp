@@ -6,15 +6,15 @@
 #include <stdexcept>
 #include <vector>
 
-#include "align3d/se3.hpp"
 #include "align3d/random.hpp"
+#include "align3d/se3.hpp"
 
 namespace align3d::synth {
 namespace {
 
 // A solid or sheet whose surface can be sampled uniformly by area. Scenes are unions of these:
-// a sample is kept only when no other primitive contains it, so hidden surfaces (the plane under the
-// box, the box's base) disappear and the kept points are uniform over the visible area.
+// a sample is kept only when no other primitive contains it, so hidden surfaces (the plane under
+// the box, the box's base) disappear and the kept points are uniform over the visible area.
 struct Primitive {
   virtual ~Primitive() = default;
   virtual double area() const = 0;
@@ -74,7 +74,8 @@ struct SphereCap : Primitive {  // the part of a sphere above z = z_cut
   Eigen::Vector3d sample(Random& rng) const override {
     const double z = rng.uniform(std::max(z_cut, centre.z() - radius), centre.z() + radius);
     const double phi = rng.uniform(0, 6.283185307179586);
-    const double rho = std::sqrt(std::max(0.0, radius * radius - (z - centre.z()) * (z - centre.z())));
+    const double rho =
+        std::sqrt(std::max(0.0, radius * radius - (z - centre.z()) * (z - centre.z())));
     return {centre.x() + rho * std::cos(phi), centre.y() + rho * std::sin(phi), z};
   }
   bool contains(const Eigen::Vector3d& p) const override {
@@ -85,9 +86,11 @@ struct SphereCap : Primitive {  // the part of a sphere above z = z_cut
 struct Cylinder : Primitive {  // vertical, with its top disk (base not sampled)
   Eigen::Vector2d axis;
   double radius, z0, z1;
-  Cylinder(Eigen::Vector2d a, double r, double lo, double hi) : axis(a), radius(r), z0(lo), z1(hi) {}
+  Cylinder(Eigen::Vector2d a, double r, double lo, double hi)
+      : axis(a), radius(r), z0(lo), z1(hi) {}
   double area() const override {
-    return 2 * 3.14159265358979323846 * radius * (z1 - z0) + 3.14159265358979323846 * radius * radius;
+    return 2 * 3.14159265358979323846 * radius * (z1 - z0) +
+           3.14159265358979323846 * radius * radius;
   }
   Eigen::Vector3d sample(Random& rng) const override {
     const double side = 2 * 3.14159265358979323846 * radius * (z1 - z0);
@@ -135,8 +138,8 @@ Primitives conveyor_parts(const ConveyorSettings& s) {
   parts.push_back(std::make_unique<Rectangle>(Eigen::Vector2d(-s.plane_x / 2, -s.plane_y / 2),
                                               Eigen::Vector2d(s.plane_x / 2, s.plane_y / 2), 0.0));
   const Eigen::Vector3d half(s.box_size.x() / 2, s.box_size.y() / 2, 0);
-  parts.push_back(std::make_unique<Box>(s.box_centre - half,
-                                        s.box_centre + half + Eigen::Vector3d(0, 0, s.box_size.z())));
+  parts.push_back(std::make_unique<Box>(
+      s.box_centre - half, s.box_centre + half + Eigen::Vector3d(0, 0, s.box_size.z())));
   parts.push_back(std::make_unique<SphereCap>(
       Eigen::Vector3d(s.cap_centre.x(), s.cap_centre.y(), s.cap_height - s.cap_radius),
       s.cap_radius, 0.0));
@@ -189,13 +192,15 @@ Scene make_conveyor_scene(const ConveyorSettings& s) {
 
   // The scan is the model moved by the known transform, with noise (so its 4310 kept points truly
   // correspond to model points, as in the chapter).
-  const Eigen::Isometry3d T_scan_model = rigid_transform(s.rotation_deg, s.rotation_axis, s.translation);
+  const Eigen::Isometry3d T_scan_model =
+      rigid_transform(s.rotation_deg, s.rotation_axis, s.translation);
   std::vector<Eigen::Vector3d> seen = scene.model.positions;
   for (auto& p : seen) p = T_scan_model * p;
   add_noise(seen, s.noise_sigma, rng);
   // Crop the left side away: keep the scan_model_points points farthest to the right (+x).
-  std::stable_sort(seen.begin(), seen.end(),
-                   [](const Eigen::Vector3d& a, const Eigen::Vector3d& b) { return a.x() > b.x(); });
+  std::stable_sort(
+      seen.begin(), seen.end(),
+      [](const Eigen::Vector3d& a, const Eigen::Vector3d& b) { return a.x() > b.x(); });
   seen.resize(static_cast<std::size_t>(s.scan_model_points));
 
   // The intruder wall: a vertical sheet right of the plane's right edge, in the scanner's frame.
@@ -230,8 +235,10 @@ Scene make_object_scene(const ObjectSettings& s) {
   Random rng(s.seed);
   Primitives parts;
   if (s.shape == "bracket") {  // an L-bracket with a boss and a dome
-    parts.push_back(std::make_unique<Box>(Eigen::Vector3d(-40, -25, 0), Eigen::Vector3d(40, 25, 10)));
-    parts.push_back(std::make_unique<Box>(Eigen::Vector3d(28, -25, 0), Eigen::Vector3d(40, 25, 55)));
+    parts.push_back(
+        std::make_unique<Box>(Eigen::Vector3d(-40, -25, 0), Eigen::Vector3d(40, 25, 10)));
+    parts.push_back(
+        std::make_unique<Box>(Eigen::Vector3d(28, -25, 0), Eigen::Vector3d(40, 25, 55)));
     parts.push_back(std::make_unique<Cylinder>(Eigen::Vector2d(-18, 8), 9, 0, 24));
     parts.push_back(std::make_unique<SphereCap>(Eigen::Vector3d(0, -10, 2), 11, 10));
   } else if (s.shape == "bumpy-sphere") {  // a sphere carrying four large domes and a post
@@ -248,17 +255,19 @@ Scene make_object_scene(const ObjectSettings& s) {
   // The view: the `overlap` share of a fresh sampling lying farthest along a view direction.
   std::vector<Eigen::Vector3d> seen = sample_union(parts, s.points, rng);
   const Eigen::Vector3d view = Eigen::Vector3d(0.4, 0.3, 1).normalized();
-  std::stable_sort(seen.begin(), seen.end(), [&](const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
-    return a.dot(view) > b.dot(view);
-  });
+  std::stable_sort(seen.begin(), seen.end(),
+                   [&](const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+                     return a.dot(view) > b.dot(view);
+                   });
   seen.resize(static_cast<std::size_t>(s.overlap * static_cast<double>(seen.size())));
-  const Eigen::Isometry3d T_scan_model = rigid_transform(s.rotation_deg, s.rotation_axis, s.translation);
+  const Eigen::Isometry3d T_scan_model =
+      rigid_transform(s.rotation_deg, s.rotation_axis, s.translation);
   for (auto& p : seen) p = T_scan_model * p;
   add_noise(seen, s.noise_sigma, rng);
   Eigen::AlignedBox3d box;
   for (const auto& p : seen) box.extend(p);
-  const auto outliers = static_cast<std::size_t>(s.outlier_fraction * static_cast<double>(seen.size()) /
-                                                 (1 - s.outlier_fraction));
+  const auto outliers = static_cast<std::size_t>(
+      s.outlier_fraction * static_cast<double>(seen.size()) / (1 - s.outlier_fraction));
   scene.scan_corresponding = seen.size();
   for (std::size_t i = 0; i < outliers; ++i) {
     const double x = rng.uniform(box.min().x(), box.max().x());
@@ -286,7 +295,8 @@ Plate make_plate(const PlateSettings& s) {
                                               Eigen::Vector2d(s.size_x / 2, s.size_y / 2), 0.0));
   Primitives part;
   part.push_back(std::make_unique<Box>(Eigen::Vector3d(5, -12, 0), Eigen::Vector3d(35, 18, 30)));
-  if (clutter > 0) sheet.push_back(std::make_unique<Box>(Eigen::Vector3d(5, -12, 0), Eigen::Vector3d(35, 18, 30)));
+  if (clutter > 0)
+    sheet.push_back(std::make_unique<Box>(Eigen::Vector3d(5, -12, 0), Eigen::Vector3d(35, 18, 30)));
   // Sample only the sheet's points from the union (the box there just hides its footprint).
   while (static_cast<int>(points.size()) < s.points - clutter) {
     const Eigen::Vector3d p = sheet[0]->sample(rng);
@@ -294,7 +304,8 @@ Plate make_plate(const PlateSettings& s) {
   }
   const std::vector<Eigen::Vector3d> on_part = sample_union(part, clutter, rng);
   points.insert(points.end(), on_part.begin(), on_part.end());
-  const Eigen::Isometry3d T = rigid_transform(s.tilt_deg, s.tilt_axis, Eigen::Vector3d(0, 0, s.height));
+  const Eigen::Isometry3d T =
+      rigid_transform(s.tilt_deg, s.tilt_axis, Eigen::Vector3d(0, 0, s.height));
   for (auto& p : points) p = T * p;
   add_noise(points, s.noise_sigma, rng);
   plate.cloud.positions = std::move(points);

@@ -9,8 +9,8 @@
 //
 // Honest failure: `success` is false, with a reason, when no pose has enough support; the caller
 // must not hand such a pose to ICP as if it were right. `ambiguous` is set when a second, distinct
-// pose (rotation differing by more than `distinct_rotation_deg` or translation by more than 2 voxels)
-// scores within `ambiguity_ratio` of the best (e.g. a symmetric part).
+// pose (rotation differing by more than `distinct_rotation_deg` or translation by more than 2
+// voxels) scores within `ambiguity_ratio` of the best (e.g. a symmetric part).
 #pragma once
 
 #include <Eigen/Geometry>
@@ -30,9 +30,9 @@ struct GlobalSettings {
   // bounding-box diagonal (unit-free). Feature radii are multiples of it.
   double voxel = 0.0;
   std::uint64_t seed = 1;
-  int threads = 0;               // 0: all cores; the result does not depend on it
+  int threads = 0;  // 0: all cores; the result does not depend on it
   // fpfh
-  bool mutual_filter = false;    // keep only mutual descriptor nearest neighbours
+  bool mutual_filter = false;  // keep only mutual descriptor nearest neighbours
   int ransac_iterations = 100000;
   double ransac_confidence = 0.9999;
   // Success: at the found pose at least this share of the downsampled source lies within
@@ -54,7 +54,7 @@ struct GlobalResult {
   bool ambiguous = false;
   Eigen::Isometry3d second_T = Eigen::Isometry3d::Identity();  // the runner-up when ambiguous
   double second_score = 0;
-  double voxel = 0;            // voxel size used
+  double voxel = 0;  // voxel size used
   double time_ms = 0;
 };
 

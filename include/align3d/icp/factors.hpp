@@ -1,5 +1,6 @@
 // One pair's cost: residual and Jacobian, and the sums the solvers need. Coordinates are expressed
-// about a fixed reference point (the ICP loop uses the target centroid) to keep the sums conditioned.
+// about a fixed reference point (the ICP loop uses the target centroid) to keep the sums
+// conditioned.
 #pragma once
 
 #include <Eigen/Core>
@@ -46,7 +47,8 @@ struct LinearSystem6 {
 };
 
 // Geman-McClure weight w = (1 + (d/scale)²)^−2: ~1 for d ≪ scale, falling as d⁻⁴ beyond it, so
-// pairs far outside the scale barely pull (an IRLS step of the Geman-McClure kernel). scale <= 0: 1.
+// pairs far outside the scale barely pull (an IRLS step of the Geman-McClure kernel). scale <=
+// 0: 1.
 inline double geman_mcclure_weight(double d, double scale) {
   if (scale <= 0) return 1.0;
   const double u = d / scale;

@@ -32,21 +32,21 @@ struct IcpSettings {
 };
 
 struct IterationRecord {
-  double rms = 0;        // RMS residual of the kept pairs at the start of the iteration: Euclidean
-                         // distance (point-to-point) or distance to the target plane (point-to-plane)
+  double rms = 0;  // RMS residual of the kept pairs at the start of the iteration: Euclidean
+                   // distance (point-to-point) or distance to the target plane (point-to-plane)
   std::size_t kept = 0;  // pairs that passed rejection
   double threshold = 0;  // rejection threshold used (data units; infinity for "none")
 };
 
 struct IcpResult {
   Eigen::Isometry3d T_target_source = Eigen::Isometry3d::Identity();
-  int iterations = 0;  // updates applied
+  int iterations = 0;      // updates applied
   bool converged = false;  // a convergence criterion fired with enough pairs (never merely the cap)
   StopReason stop_reason = StopReason::kMaxIterations;
   // Evaluated once more at the final pose, with the last iteration's threshold:
-  double rms = 0;                  // RMS of the kept pairs' residuals (metric as in IterationRecord)
-  std::size_t correspondences = 0; // kept pairs
-  double fitness = 0;              // kept pairs ÷ source points (Open3D's meaning)
+  double rms = 0;  // RMS of the kept pairs' residuals (metric as in IterationRecord)
+  std::size_t correspondences = 0;  // kept pairs
+  double fitness = 0;               // kept pairs ÷ source points (Open3D's meaning)
   std::vector<IterationRecord> history;
   // The last point-to-plane system (H of Σ w r², in the frame centred on the target centroid,
   // unknowns ω then v) for judging which directions the data constrains; zero for point-to-point.

@@ -1,5 +1,5 @@
-// Correspondence rejection (chapter 39.1 step 2): a pair is kept when its nearest-neighbour distance
-// is <= the iteration's threshold. Distances are true (not squared) Euclidean distances.
+// Correspondence rejection (chapter 39.1 step 2): a pair is kept when its nearest-neighbour
+// distance is <= the iteration's threshold. Distances are true (not squared) Euclidean distances.
 #pragma once
 
 #include <limits>
@@ -35,8 +35,8 @@ struct RejectionRule {
 // The threshold for one iteration given the distances of all found pairs (reordered in place).
 double rejection_threshold(const RejectionRule& rule, std::vector<double>& distances);
 
-// "median:2.5", "median:2.5:0.5" (factor, floor), "distance:1.2", "none"; "median" alone = factor 2.5.
-// Throws std::invalid_argument with a message naming the bad part.
+// "median:2.5", "median:2.5:0.5" (factor, floor), "distance:1.2", "none"; "median" alone =
+// factor 2.5. Throws std::invalid_argument with a message naming the bad part.
 RejectionRule parse_rejection_rule(const std::string& text);
 std::string to_string(const RejectionRule& rule);
 

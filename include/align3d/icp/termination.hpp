@@ -18,22 +18,27 @@ struct TerminationSettings {
 };
 
 enum class StopReason {
-  kRmsChange,               // converged: RMS settled
-  kTransformChange,         // converged: the update became negligible
-  kCycle,                   // converged: the loop repeats a state of the last 4 iterations exactly
-                            // (same RMS to 1e-12 and same number of pairs): discrete
-                            // correspondences flipping back and forth, no further progress
-  kMaxIterations,           // not converged: iteration cap
-  kTooFewCorrespondences,   // not converged: fewer pairs than the metric needs
+  kRmsChange,              // converged: RMS settled
+  kTransformChange,        // converged: the update became negligible
+  kCycle,                  // converged: the loop repeats a state of the last 4 iterations exactly
+                           // (same RMS to 1e-12 and same number of pairs): discrete
+                           // correspondences flipping back and forth, no further progress
+  kMaxIterations,          // not converged: iteration cap
+  kTooFewCorrespondences,  // not converged: fewer pairs than the metric needs
 };
 
 inline const char* to_string(StopReason r) {
   switch (r) {
-    case StopReason::kRmsChange: return "rms_change";
-    case StopReason::kTransformChange: return "transform_change";
-    case StopReason::kCycle: return "cycle";
-    case StopReason::kMaxIterations: return "max_iterations";
-    case StopReason::kTooFewCorrespondences: return "too_few_correspondences";
+    case StopReason::kRmsChange:
+      return "rms_change";
+    case StopReason::kTransformChange:
+      return "transform_change";
+    case StopReason::kCycle:
+      return "cycle";
+    case StopReason::kMaxIterations:
+      return "max_iterations";
+    case StopReason::kTooFewCorrespondences:
+      return "too_few_correspondences";
   }
   return "unknown";
 }

@@ -1,7 +1,7 @@
 // Atomic file output: everything align3d writes goes through here. The content is written to a
-// temporary file next to the destination, flushed, and renamed over it; on any failure the temporary
-// is removed and an OutputError naming the destination is thrown. So a destination holds either the
-// complete new content or whatever it held before.
+// temporary file next to the destination, flushed, and renamed over it; on any failure the
+// temporary is removed and an OutputError naming the destination is thrown. So a destination holds
+// either the complete new content or whatever it held before.
 #pragma once
 
 #include <filesystem>

@@ -28,11 +28,12 @@ struct RectifySettings {
 
 struct RectifyResult {
   Eigen::Isometry3d transformation = Eigen::Isometry3d::Identity();  // cloud → rectified frame
-  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();  // fitted plane normal, oriented up (input frame)
-  double tilt_before_deg = 0;   // angle between `normal` and +Z
-  double tilt_after_deg = 0;    // the same, measured by refitting the rectified inliers
-  std::size_t inliers = 0;      // points the plane was fitted to (all, unless robust)
-  double flatness = 0;          // peak-to-valley of the inliers' residuals to the fitted plane
+  Eigen::Vector3d normal =
+      Eigen::Vector3d::UnitZ();  // fitted plane normal, oriented up (input frame)
+  double tilt_before_deg = 0;    // angle between `normal` and +Z
+  double tilt_after_deg = 0;     // the same, measured by refitting the rectified inliers
+  std::size_t inliers = 0;       // points the plane was fitted to (all, unless robust)
+  double flatness = 0;           // peak-to-valley of the inliers' residuals to the fitted plane
 };
 
 // The rotation taking unit vector n to +Z by the shortest arc (Rodrigues), with the ±Z cases above.

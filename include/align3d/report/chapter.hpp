@@ -14,13 +14,13 @@
 namespace align3d::report {
 
 struct ChapterScene {
-  PointCloud model, scan;           // target and source
-  Eigen::Isometry3d T_model_scan;   // ground truth
+  PointCloud model, scan;          // target and source
+  Eigen::Isometry3d T_model_scan;  // ground truth
   PointCloud plate, plate_cluttered;
   // The cluttered plate's true up normal, to score the plane fits (NaN when unknown: a scene read
   // from a directory without scene.json).
   Eigen::Vector3d cluttered_true_normal = Eigen::Vector3d::Constant(std::nan(""));
-  double noise_sigma = 0.1;         // of the scan, for the noise floor in figure 39.3
+  double noise_sigma = 0.1;  // of the scan, for the noise floor in figure 39.3
 };
 
 // Generated (synth::make_conveyor_scene + plates, as `align3d synth` writes them) or read from a
@@ -39,15 +39,15 @@ struct IcpExperiment {
 };
 
 struct ChapterResults {
-  IcpExperiment p2p_good;     // 39.2: point-to-point from the identity
-  IcpExperiment p2p_bad;      // 39.3: point-to-point from an extra 40° about Z
-  IcpExperiment p2plane;      // 39.4: point-to-plane from the identity
-  IcpExperiment robust;       // beyond the chapter: `align3d register` defaults from the identity
+  IcpExperiment p2p_good;  // 39.2: point-to-point from the identity
+  IcpExperiment p2p_bad;   // 39.3: point-to-point from an extra 40° about Z
+  IcpExperiment p2plane;   // 39.4: point-to-plane from the identity
+  IcpExperiment robust;    // beyond the chapter: `align3d register` defaults from the identity
   // Beyond the chapter, its remedy (39.3): bad initial value, then global registration (fpfh) and
   // point-to-plane ICP with the chapter's settings.
   IcpExperiment global;
   GlobalResult global_coarse;
-  RectifyResult plate;        // 39.5: plane correction of the tilted plate
+  RectifyResult plate;                              // 39.5: plane correction of the tilted plate
   RectifyResult cluttered_plain, cluttered_robust;  // the cluttered plate, LSQ vs RANSAC + LSQ
   // Angle between each fit's normal and the true one (NaN when the truth is unknown).
   double cluttered_plain_error_deg = 0, cluttered_robust_error_deg = 0;

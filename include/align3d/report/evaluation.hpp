@@ -1,6 +1,7 @@
 // Evaluation of registration from arbitrary starting poses (issue #4): success rates over seeded
 // random initial poses, and the convergence basin (success over a grid of initial rotation angle ×
-// translation magnitude, random axes and directions, as in Rusinkiewicz 2019's symmetric-ICP study).
+// translation magnitude, random axes and directions, as in Rusinkiewicz 2019's symmetric-ICP
+// study).
 #pragma once
 
 #include <Eigen/Core>
@@ -16,14 +17,18 @@ namespace align3d::report {
 
 struct EvalScene {
   std::string name;
-  PointCloud source, target;   // scan and model
-  Eigen::Isometry3d truth;     // target ≈ truth·source
+  PointCloud source, target;  // scan and model
+  Eigen::Isometry3d truth;    // target ≈ truth·source
 };
 
 // The chapter scene and two partial views of objects of our own (~60 % overlap, 5 % outliers).
 std::vector<EvalScene> evaluation_scenes();
 
-enum class EvalMethod { kPointToPoint, kPointToPlane, kGlobal };  // ICP alone (defaults) or fpfh + ICP
+enum class EvalMethod {
+  kPointToPoint,
+  kPointToPlane,
+  kGlobal
+};  // ICP alone (defaults) or fpfh + ICP
 const char* to_string(EvalMethod m);
 
 struct TrialResult {
@@ -48,13 +53,14 @@ struct SuccessRow {
 SuccessRow success_rate(const EvalScene& scene, EvalMethod method, int trials, std::uint64_t seed);
 
 struct Basin {
-  std::vector<double> angles_deg;          // columns
+  std::vector<double> angles_deg;             // columns
   std::vector<double> translation_fractions;  // rows, fractions of the target's diagonal
   int trials_per_cell = 0;
-  Eigen::MatrixXd success;                 // rows × columns, in [0, 1]
+  Eigen::MatrixXd success;  // rows × columns, in [0, 1]
 };
 
-Basin convergence_basin(const EvalScene& scene, EvalMethod method, const std::vector<double>& angles_deg,
+Basin convergence_basin(const EvalScene& scene, EvalMethod method,
+                        const std::vector<double>& angles_deg,
                         const std::vector<double>& translation_fractions, int trials_per_cell,
                         std::uint64_t seed);
 

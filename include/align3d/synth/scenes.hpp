@@ -13,19 +13,19 @@ namespace align3d::synth {
 
 struct ConveyorSettings {
   std::uint64_t seed = 39;
-  int model_points = 5678;       // model: plane + box + cap, sampled by area
-  int scan_model_points = 4310;  // scan points that come from the model (after the crop)
-  int wall_points = 2187;        // scan points on the intruder wall (no correspondence)
-  double plane_x = 280, plane_y = 200;                // conveyor plane, centred at the origin, z = 0
-  Eigen::Vector3d box_centre{-30, 15, 0};             // box standing on the plane (base centre)
+  int model_points = 5678;                 // model: plane + box + cap, sampled by area
+  int scan_model_points = 4310;            // scan points that come from the model (after the crop)
+  int wall_points = 2187;                  // scan points on the intruder wall (no correspondence)
+  double plane_x = 280, plane_y = 200;     // conveyor plane, centred at the origin, z = 0
+  Eigen::Vector3d box_centre{-30, 15, 0};  // box standing on the plane (base centre)
   Eigen::Vector3d box_size{40, 40, 25};
-  Eigen::Vector2d cap_centre{35, -20};                // spherical cap standing on the plane
-  double cap_radius = 28, cap_height = 14;            // sphere radius, cap height
-  double rotation_deg = 12;                           // scan = T·model, T = (R about axis, t)
+  Eigen::Vector2d cap_centre{35, -20};      // spherical cap standing on the plane
+  double cap_radius = 28, cap_height = 14;  // sphere radius, cap height
+  double rotation_deg = 12;                 // scan = T·model, T = (R about axis, t)
   Eigen::Vector3d rotation_axis{1, 2, 2};
   Eigen::Vector3d translation{5, -3, 2};
-  double noise_sigma = 0.1;                           // Gaussian, per coordinate, on the scan
-  double wall_gap = 12, wall_height = 50;             // wall: this far right of the plane, this tall
+  double noise_sigma = 0.1;                // Gaussian, per coordinate, on the scan
+  double wall_gap = 12, wall_height = 50;  // wall: this far right of the plane, this tall
 
   // Harder variants used by tests of the default registration: "chapter" (the above),
   // "wide-plane" (the plane dominates even more), "small-features" (smaller box and cap),
@@ -34,9 +34,9 @@ struct ConveyorSettings {
 };
 
 struct Scene {
-  PointCloud model;                  // the target
-  PointCloud scan;                   // the source
-  Eigen::Isometry3d T_model_scan;    // ground truth: model ≈ T·scan
+  PointCloud model;                    // the target
+  PointCloud scan;                     // the source
+  Eigen::Isometry3d T_model_scan;      // ground truth: model ≈ T·scan
   std::size_t scan_corresponding = 0;  // scan points that come from the model surfaces
   std::size_t scan_outliers = 0;       // scan points with no correspondence
 };
@@ -68,7 +68,7 @@ struct PlateSettings {
   double size_x = 100, size_y = 80;
   double tilt_deg = 7;
   Eigen::Vector3d tilt_axis{1, 0.35, 0};  // horizontal but oblique: a compound tilt
-  double height = 20;  // plate centre height above z = 0 before tilting
+  double height = 20;                     // plate centre height above z = 0 before tilting
   double noise_sigma = 0.05;
   double clutter_fraction = 0.0;
 };
