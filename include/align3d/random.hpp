@@ -8,6 +8,15 @@
 
 namespace align3d {
 
+// SplitMix64 (Steele, Lea and Flood 2014): a counter-based mixer, the same on every platform; the
+// seed of stream k is splitmix64(base ^ k) or splitmix64(base + γ·k).
+inline std::uint64_t splitmix64(std::uint64_t x) {
+  x += 0x9e3779b97f4a7c15ULL;
+  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
+  return x ^ (x >> 31);
+}
+
 class Random {
  public:
   explicit Random(std::uint64_t seed) : engine_(seed) {}

@@ -30,12 +30,9 @@ nlohmann::json write_scene(const std::filesystem::path& outdir, std::uint64_t se
   synth::ConveyorSettings cs = synth::ConveyorSettings::variant(variant);
   cs.seed = seed;
   const synth::Scene scene = synth::make_conveyor_scene(cs);
-  synth::PlateSettings ps;
-  ps.seed = seed + 1;
+  const synth::PlateSettings ps = synth::chapter_plate(seed, false);
   const synth::Plate plate = synth::make_plate(ps);
-  synth::PlateSettings cps = ps;
-  cps.seed = seed + 2;
-  cps.clutter_fraction = 0.2;
+  const synth::PlateSettings cps = synth::chapter_plate(seed, true);
   const synth::Plate cluttered = synth::make_plate(cps);
 
   io::write_ply(outdir / "model.ply", scene.model);

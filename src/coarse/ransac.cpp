@@ -27,6 +27,7 @@
 #include "align3d/kdtree.hpp"
 #include "align3d/normals.hpp"
 #include "align3d/parallel.hpp"
+#include "align3d/random.hpp"
 #include "align3d/registration.hpp"
 #include "align3d/se3.hpp"
 
@@ -45,14 +46,6 @@ constexpr std::size_t kMaxPoses = 16;   // distinct poses remembered for the amb
 constexpr int kRefineRounds = 3;
 constexpr std::size_t kMinInliers = 9;  // 3 × the minimal sample
 constexpr double kTwinSupport = 0.5;    // ambiguity: own inliers of the runner-up / winner's
-
-// SplitMix64 (Steele, Lea and Flood 2014): a counter-based generator, the same on every platform.
-std::uint64_t splitmix64(std::uint64_t x) {
-  x += 0x9e3779b97f4a7c15ULL;
-  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
-  x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
-  return x ^ (x >> 31);
-}
 
 // The stream of hypothesis k: independent of which thread evaluates it.
 class HypothesisStream {

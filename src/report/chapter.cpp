@@ -175,14 +175,9 @@ ChapterScene generate_chapter_scene(std::uint64_t seed) {
   synth::ConveyorSettings cs;
   cs.seed = seed;
   const synth::Scene s = synth::make_conveyor_scene(cs);
-  synth::PlateSettings ps;
-  ps.seed = seed + 1;
-  synth::PlateSettings cps = ps;
-  cps.seed = seed + 2;
-  cps.clutter_fraction = 0.2;
-  const synth::Plate cluttered = synth::make_plate(cps);
+  const synth::Plate cluttered = synth::make_plate(synth::chapter_plate(seed, true));
   return {s.model,         s.scan,
-          s.T_model_scan,  synth::make_plate(ps).cloud,
+          s.T_model_scan,  synth::make_plate(synth::chapter_plate(seed, false)).cloud,
           cluttered.cloud, cluttered.true_normal,
           cs.noise_sigma};
 }

@@ -23,10 +23,7 @@ Eigen::Vector3d random_unit(Random& rng) {
 // Counter-based stream: trial k of a run draws from its own generator, so results do not depend on
 // which trials ran before.
 Random trial_rng(std::uint64_t seed, std::uint64_t k) {
-  std::uint64_t z = seed + 0x9E3779B97F4A7C15ULL * (k + 1);
-  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
-  z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
-  return Random(z ^ (z >> 31));
+  return Random(splitmix64(seed + 0x9E3779B97F4A7C15ULL * k));
 }
 
 }  // namespace

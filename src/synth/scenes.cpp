@@ -281,6 +281,13 @@ Scene make_object_scene(const ObjectSettings& s) {
   return scene;
 }
 
+PlateSettings chapter_plate(std::uint64_t scene_seed, bool cluttered) {
+  PlateSettings s;
+  s.seed = scene_seed + (cluttered ? 2 : 1);
+  if (cluttered) s.clutter_fraction = 0.2;
+  return s;
+}
+
 Plate make_plate(const PlateSettings& s) {
   if (s.points < 3 || s.clutter_fraction < 0 || s.clutter_fraction >= 1)
     throw std::invalid_argument("make_plate: bad settings");

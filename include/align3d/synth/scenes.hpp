@@ -79,4 +79,8 @@ struct Plate {
 };
 Plate make_plate(const PlateSettings& settings = {});
 
+// The chapter's plates for a scene seed, as `align3d synth` and the demo use them: the tilted plate
+// (seed + 1) and, with `cluttered`, the plate with a part holding 20 % of the points (seed + 2).
+PlateSettings chapter_plate(std::uint64_t scene_seed, bool cluttered);
+
 }  // namespace align3d::synth
