@@ -14,7 +14,10 @@ NormalResult estimate_normals(PointCloud& cloud, const KdTree& tree,
   cloud.normals.assign(n, Eigen::Vector3d::UnitZ());
   std::vector<unsigned char> undefined(n, 0);
   const auto k = static_cast<std::size_t>(settings.k);
-  parallel_for(n, settings.threads, [&](std::size_t i) {
+  // Points are visited in spatial order so consecutive searches share cached tree nodes.
+  const std::vector<std::uint32_t> order = spatial_order(cloud.positions);
+  parallel_for(n, settings.threads, [&](std::size_t rank) {
+    const std::size_t i = order[rank];
     thread_local std::vector<Neighbor> nb;
     const Eigen::Vector3d& p = cloud.positions[i];
     tree.knn(p, k, nb);

@@ -33,6 +33,17 @@ void append(RegistrationResult& out, const IcpResult& r, const IcpSettings& s) {
   out.total_iterations += r.iterations;
 }
 
+PointCloud reordered(const PointCloud& cloud, const std::vector<std::uint32_t>& order) {
+  PointCloud out;
+  out.positions.reserve(order.size());
+  for (std::uint32_t i : order) out.positions.push_back(cloud.positions[i]);
+  if (cloud.has_normals()) {
+    out.normals.reserve(order.size());
+    for (std::uint32_t i : order) out.normals.push_back(cloud.normals[i]);
+  }
+  return out;
+}
+
 }  // namespace
 
 double point_spacing(const PointCloud& cloud, const KdTree& tree, std::size_t samples) {
@@ -73,7 +84,9 @@ RegistrationResult register_clouds(const PointCloud& source, const PointCloud& t
   check_registrable(target_in, "target");
   RegistrationResult out;
 
-  PointCloud target = target_in;  // normals may be added
+  // A copy in spatial order (normals may be added): the search, the normals and the ICP sums then
+  // touch memory in order. The result, a transform, does not depend on the order of the points.
+  PointCloud target = reordered(target_in, spatial_order(target_in.positions));
   const KdTree tree(target.positions);
   const bool need_normals =
       settings.method == IcpMethod::kPointToPlane || !settings.rejection.has_value();

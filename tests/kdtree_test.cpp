@@ -5,9 +5,11 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
 #include <limits>
 #include <set>
 #include <string>
@@ -247,6 +249,58 @@ TEST(KdTree, ConcurrentQueriesGiveTheSameAnswers) {
       EXPECT_EQ(serial[i][j].sq_distance, parallel[i][j].sq_distance);
     }
   }
+}
+
+TEST(KdTree, KeepsItsOwnCopyOfThePoints) {
+  Random rng(77);
+  std::vector<Eigen::Vector3d> points(500);
+  for (auto& p : points) p = {rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1)};
+  const std::vector<Eigen::Vector3d> kept = points;
+  const KdTree tree(points);
+  for (auto& p : points) p.setConstant(1e9);  // the caller reuses its buffer
+  points.clear();
+  for (int q = 0; q < 50; ++q) {
+    const Eigen::Vector3d query(rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1));
+    Neighbor nb;
+    ASSERT_TRUE(tree.nearest(query, nb));
+    double best = std::numeric_limits<double>::infinity();
+    for (const auto& p : kept) best = std::min(best, (p - query).squaredNorm());
+    EXPECT_EQ(nb.sq_distance, best);
+    EXPECT_EQ((kept[nb.index] - query).squaredNorm(), best);
+  }
+}
+
+// Oracle: the Morton key built bit by bit, and a stable sort by it.
+TEST(SpatialOrder, IsTheStableSortByInterleavedGridCoordinates) {
+  Random rng(78);
+  std::vector<Eigen::Vector3d> points(3000);
+  for (auto& p : points) p = {rng.uniform(-5, 5), rng.uniform(0, 2), rng.uniform(10, 11)};
+  points.push_back(points[17]);  // a duplicate keeps input order
+  Eigen::AlignedBox3d box;
+  for (const auto& p : points) box.extend(p);
+  auto key = [&](const Eigen::Vector3d& p) {
+    std::uint32_t k = 0;
+    for (int axis = 0; axis < 3; ++axis) {
+      const double scaled = (p[axis] - box.min()[axis]) * 1023.0 / box.sizes()[axis];
+      const auto cell = static_cast<std::uint32_t>(std::clamp(scaled, 0.0, 1023.0));
+      for (int bit = 0; bit < 10; ++bit) k |= ((cell >> bit) & 1u) << (3 * bit + axis);
+    }
+    return k;
+  };
+  std::vector<std::uint32_t> expected(points.size());
+  for (std::size_t i = 0; i < expected.size(); ++i) expected[i] = static_cast<std::uint32_t>(i);
+  std::stable_sort(expected.begin(), expected.end(), [&](std::uint32_t a, std::uint32_t b) {
+    return key(points[a]) < key(points[b]);
+  });
+  EXPECT_EQ(spatial_order(points), expected);
+}
+
+TEST(SpatialOrder, HandlesEmptyFlatAndSinglePointInputs) {
+  EXPECT_TRUE(spatial_order({}).empty());
+  EXPECT_EQ(spatial_order({Eigen::Vector3d(1, 2, 3)}), std::vector<std::uint32_t>{0});
+  // All points on the plane z = 4: the flat axis has zero extent.
+  const std::vector<Eigen::Vector3d> flat = {{1, 1, 4}, {0, 0, 4}, {1, 0, 4}, {0, 1, 4}};
+  EXPECT_EQ(spatial_order(flat), (std::vector<std::uint32_t>{1, 2, 3, 0}));
 }
 
 }  // namespace

@@ -1,8 +1,8 @@
 // Nearest-neighbour search over a fixed set of 3D points (a nanoflann kd-tree; chapter 39.1 step 1:
 // O(log M) per query instead of the brute-force O(M)).
 //
-// Lifetime: the tree references `points`, it does not copy them; the vector must outlive the tree
-// and must not change while the tree exists.
+// Lifetime: the tree keeps its own copy of the points (in leaf order, for cache locality: 28 bytes
+// per point), so the input may change or go away afterwards; results index the input order.
 // Thread-safety: all const queries may run concurrently from any number of threads.
 // Distances: every `sq_` quantity is a squared Euclidean distance in the data's units.
 // Ties: among equidistant points the result is deterministic for a given tree.
@@ -10,6 +10,7 @@
 
 #include <Eigen/Core>
 #include <cstddef>
+#include <cstdint>
 #include <limits>
 #include <memory>
 #include <vector>
@@ -47,5 +48,10 @@ class KdTree {
   std::unique_ptr<Impl> impl_;
   std::size_t size_;
 };
+
+// The indices of `points` ordered along a Morton (Z-order) curve on a 1024³ grid over their
+// bounding box (a stable radix sort, O(n)): consecutive indices are close in space, so queries
+// issued in this order find the tree's nodes and points still in cache.
+std::vector<std::uint32_t> spatial_order(const std::vector<Eigen::Vector3d>& points);
 
 }  // namespace align3d

@@ -17,16 +17,57 @@ struct SynthOptions {
   std::string outdir;
   std::uint64_t seed = 39;
   std::string variant = "chapter";
+  std::string scene = "chapter";
+  int points = 100000;
 };
+
+void make_directory(const std::filesystem::path& outdir) {
+  std::error_code ec;
+  std::filesystem::create_directories(outdir, ec);
+  if (ec) throw OutputError(outdir.string() + ": cannot create directory: " + ec.message());
+}
+
+// The benchmark work cell (synth::make_parts_scene): model.ply, scan.ply, ground_truth.txt and
+// scene.json.
+nlohmann::json write_parts_scene(const std::filesystem::path& outdir, std::uint64_t seed,
+                                 int points) {
+  make_directory(outdir);
+  synth::PartsSettings ps;
+  ps.seed = seed;
+  ps.points = points;
+  const synth::Scene scene = synth::make_parts_scene(ps);
+  io::write_ply(outdir / "model.ply", scene.model);
+  io::write_ply(outdir / "scan.ply", scene.scan);
+  io::write_matrix(outdir / "ground_truth.txt", scene.T_model_scan);
+  const nlohmann::json json = {
+      {"units", "mm"},
+      {"seed", seed},
+      {"scene", "parts"},
+      {"model", {{"file", "model.ply"}, {"points", scene.model.size()}, {"parts", ps.parts}}},
+      {"scan",
+       {{"file", "scan.ply"},
+        {"points", scene.scan.size()},
+        {"from_model", scene.scan_corresponding},
+        {"no_correspondence", scene.scan_outliers},
+        {"overlap", ps.overlap},
+        {"rotation_deg", ps.rotation_deg},
+        {"rotation_axis", to_json(ps.rotation_axis)},
+        {"translation", to_json(ps.translation)},
+        {"noise_sigma", ps.noise_sigma}}},
+      {"ground_truth",
+       {{"file", "ground_truth.txt"},
+        {"meaning", "maps scan into the model frame: model ≈ T·scan"},
+        {"transformation", to_json(scene.T_model_scan)}}}};
+  write_json((outdir / "scene.json").string(), json, std::cout);
+  return json;
+}
 
 }  // namespace
 
 // Writes the scene files into `outdir` (created if missing) and returns scene.json's content.
 nlohmann::json write_scene(const std::filesystem::path& outdir, std::uint64_t seed,
                            const std::string& variant) {
-  std::error_code ec;
-  std::filesystem::create_directories(outdir, ec);
-  if (ec) throw OutputError(outdir.string() + ": cannot create directory: " + ec.message());
+  make_directory(outdir);
   synth::ConveyorSettings cs = synth::ConveyorSettings::variant(variant);
   cs.seed = seed;
   const synth::Scene scene = synth::make_conveyor_scene(cs);
@@ -95,7 +136,10 @@ Command add_synth(CLI::App& app, Streams io) {
       "synth",
       "Write the chapter's synthetic scene into OUTDIR: model.ply (5678 points), scan.ply (6497: "
       "4310 from the model, 2187 on an intruder wall), ground_truth.txt (4x4, model ≈ T·scan), "
-      "plate.ply (7° tilt), plate_cluttered.ply (20 % clutter) and scene.json. Units: mm.");
+      "plate.ply (7° tilt), plate_cluttered.ply (20 % clutter) and scene.json. Units: mm.\n"
+      "With --scene parts: a benchmark work cell of --points points (floor, back wall, 48 "
+      "boxes, cylinders and domes; the scan an independent sampling with 70 % overlap, 10°, "
+      "noise 0.1 mm, 2 % outliers): model.ply, scan.ply, ground_truth.txt, scene.json.");
   sub->add_option("OUTDIR", o->outdir, "Output directory (created if missing)")->required();
   sub->add_option("--seed", o->seed, "Random seed; the same seed writes the same bytes")
       ->capture_default_str();
@@ -103,7 +147,19 @@ Command add_synth(CLI::App& app, Streams io) {
                   "Scene geometry: chapter, or a harder variant for testing registration")
       ->check(CLI::IsMember({"chapter", "wide-plane", "small-features", "large-offset", "extreme"}))
       ->capture_default_str();
+  sub->add_option("--scene", o->scene, "chapter (the conveyor scene and plates) or parts")
+      ->check(CLI::IsMember({"chapter", "parts"}))
+      ->capture_default_str();
+  sub->add_option("--points", o->points, "Points in each cloud of the parts scene")
+      ->check(CLI::Range(10, 100000000))
+      ->capture_default_str();
   return {sub, [o, io] {
+            if (o->scene == "parts") {
+              const nlohmann::json j = write_parts_scene(o->outdir, o->seed, o->points);
+              io.out << "wrote " << o->outdir << ": model " << j["model"]["points"]
+                     << " points, scan " << j["scan"]["points"] << " points\n";
+              return 0;
+            }
             const nlohmann::json j = write_scene(o->outdir, o->seed, o->variant);
             io.out << "wrote " << o->outdir << ": model " << j["model"]["points"]
                    << " points, scan " << j["scan"]["points"] << " points ("

@@ -1,6 +1,7 @@
 #include "align3d/synth/scenes.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <memory>
 #include <numeric>
 #include <stdexcept>
@@ -131,6 +132,19 @@ void add_noise(std::vector<Eigen::Vector3d>& points, double sigma, Random& rng) 
     const double nx = rng.normal(), ny = rng.normal(), nz = rng.normal();
     p += sigma * Eigen::Vector3d(nx, ny, nz);
   }
+}
+
+// Appends n points scattered uniformly in the bounding box of `points`; returns n.
+std::size_t add_outliers(std::vector<Eigen::Vector3d>& points, std::size_t n, Random& rng) {
+  Eigen::AlignedBox3d box;
+  for (const auto& p : points) box.extend(p);
+  for (std::size_t i = 0; i < n; ++i) {
+    const double x = rng.uniform(box.min().x(), box.max().x());
+    const double y = rng.uniform(box.min().y(), box.max().y());
+    const double z = rng.uniform(box.min().z(), box.max().z());
+    points.emplace_back(x, y, z);
+  }
+  return n;
 }
 
 Primitives conveyor_parts(const ConveyorSettings& s) {
@@ -264,18 +278,70 @@ Scene make_object_scene(const ObjectSettings& s) {
       rigid_transform(s.rotation_deg, s.rotation_axis, s.translation);
   for (auto& p : seen) p = T_scan_model * p;
   add_noise(seen, s.noise_sigma, rng);
-  Eigen::AlignedBox3d box;
-  for (const auto& p : seen) box.extend(p);
-  const auto outliers = static_cast<std::size_t>(
-      s.outlier_fraction * static_cast<double>(seen.size()) / (1 - s.outlier_fraction));
   scene.scan_corresponding = seen.size();
-  for (std::size_t i = 0; i < outliers; ++i) {
-    const double x = rng.uniform(box.min().x(), box.max().x());
-    const double y = rng.uniform(box.min().y(), box.max().y());
-    const double z = rng.uniform(box.min().z(), box.max().z());
-    seen.emplace_back(x, y, z);
+  scene.scan_outliers =
+      add_outliers(seen,
+                   static_cast<std::size_t>(s.outlier_fraction * static_cast<double>(seen.size()) /
+                                            (1 - s.outlier_fraction)),
+                   rng);
+  scene.scan.positions = std::move(seen);
+  scene.T_model_scan = T_scan_model.inverse();
+  return scene;
+}
+
+Scene make_parts_scene(const PartsSettings& s) {
+  if (s.points < 10 || s.parts < 0 || !(s.overlap > 0 && s.overlap <= 1) ||
+      s.outlier_fraction < 0 || s.outlier_fraction >= 1)
+    throw std::invalid_argument("make_parts_scene: bad settings");
+  constexpr double kFloorX = 1200, kFloorY = 900;
+  Random rng(s.seed);
+  Primitives cell;
+  cell.push_back(std::make_unique<Rectangle>(Eigen::Vector2d(-kFloorX / 2, -kFloorY / 2),
+                                             Eigen::Vector2d(kFloorX / 2, kFloorY / 2), 0.0));
+  cell.push_back(std::make_unique<Box>(Eigen::Vector3d(-kFloorX / 2, kFloorY / 2 - 20, 0),
+                                       Eigen::Vector3d(kFloorX / 2, kFloorY / 2, 250)));
+  // Parts on a grid of cells (8 columns), each a box, a cylinder or a dome jittered in its cell.
+  const int columns = 8, rows = std::max(1, (s.parts + columns - 1) / columns);
+  const double cx = kFloorX / columns, cy = (kFloorY - 60) / rows;
+  for (int i = 0; i < s.parts; ++i) {
+    const Eigen::Vector2d centre(-kFloorX / 2 + (i % columns + 0.5) * cx + rng.uniform(-15, 15),
+                                 -kFloorY / 2 + (i / columns + 0.5) * cy + rng.uniform(-15, 15));
+    const double r = rng.uniform(0.2, 0.4) * std::min(cx, cy);
+    switch (i % 3) {
+      case 0: {
+        const Eigen::Vector3d half(r, rng.uniform(0.5, 1.0) * r, 0);
+        const double h = rng.uniform(20, 120);
+        cell.push_back(std::make_unique<Box>(Eigen::Vector3d(centre.x(), centre.y(), 0) - half,
+                                             Eigen::Vector3d(centre.x(), centre.y(), h) + half));
+        break;
+      }
+      case 1:
+        cell.push_back(std::make_unique<Cylinder>(centre, r, 0, rng.uniform(20, 150)));
+        break;
+      default: {
+        const double h = rng.uniform(0.4, 0.9) * r;
+        cell.push_back(
+            std::make_unique<SphereCap>(Eigen::Vector3d(centre.x(), centre.y(), h - r), r, 0.0));
+      }
+    }
   }
-  scene.scan_outliers = outliers;
+  Scene scene;
+  scene.model.positions = sample_union(cell, s.points, rng);
+
+  // The view: an independent sampling, cropped to the share farthest along +x.
+  std::vector<Eigen::Vector3d> seen =
+      sample_union(cell, static_cast<int>(std::ceil(s.points / s.overlap)), rng);
+  std::stable_sort(
+      seen.begin(), seen.end(),
+      [](const Eigen::Vector3d& a, const Eigen::Vector3d& b) { return a.x() > b.x(); });
+  seen.resize(static_cast<std::size_t>(s.points));
+  const Eigen::Isometry3d T_scan_model =
+      rigid_transform(s.rotation_deg, s.rotation_axis, s.translation);
+  for (auto& p : seen) p = T_scan_model * p;
+  add_noise(seen, s.noise_sigma, rng);
+  scene.scan_corresponding = seen.size();
+  scene.scan_outliers =
+      add_outliers(seen, static_cast<std::size_t>(s.outlier_fraction * s.points), rng);
   scene.scan.positions = std::move(seen);
   scene.T_model_scan = T_scan_model.inverse();
   return scene;

@@ -59,6 +59,24 @@ struct ObjectSettings {
 };
 Scene make_object_scene(const ObjectSettings& settings = {});
 
+// A work cell for benchmarks at any size: a 1200 × 900 mm floor with a back wall and `parts`
+// boxes, cylinders and domes of random sizes on a grid. target = the cell sampled with `points`
+// points; source = an independent sampling of the cell (so no point has an exact twin), cropped to
+// the `overlap` share of it farthest along +x, `points` points in all, moved by a known transform,
+// with noise and `outlier_fraction` extra points scattered in the source's bounding box.
+struct PartsSettings {
+  std::uint64_t seed = 11;
+  int points = 100000;
+  int parts = 48;
+  double overlap = 0.7;
+  double outlier_fraction = 0.02;
+  double noise_sigma = 0.1;
+  double rotation_deg = 10;
+  Eigen::Vector3d rotation_axis{1, -2, 3};
+  Eigen::Vector3d translation{20, -10, 5};
+};
+Scene make_parts_scene(const PartsSettings& settings = {});
+
 // Section 39.5: a plate tilted by `tilt_deg` about a slightly oblique horizontal-ish axis, with
 // noise; with `clutter_fraction` > 0 a box-shaped part stands on the plate and holds that fraction
 // of the points.
