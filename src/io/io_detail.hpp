@@ -347,4 +347,7 @@ PointCloud read_ply(const std::filesystem::path& path, std::string_view data, st
 PointCloud read_pcd(const std::filesystem::path& path, std::string_view data, std::size_t& dropped);
 PointCloud read_xyz(const std::filesystem::path& path, std::string_view data, std::size_t& dropped);
 
+// The matrix reader (matrix_io.hpp) given the whole file's bytes.
+Eigen::Isometry3d parse_matrix(const std::filesystem::path& path, std::string_view data);
+
 }  // namespace align3d::io::detail
