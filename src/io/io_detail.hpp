@@ -37,6 +37,15 @@ inline constexpr std::size_t kMaxHeaderBytes = std::size_t{1} << 20;
 // Throws IoError("<path>: <problem>").
 [[noreturn]] void fail(const std::filesystem::path& path, const std::string& problem);
 
+// A data line of a PLY or PCD ascii body longer than this is refused (PCL's largest descriptors
+// take a few tens of kB as text), so that a binary body under an ascii header, or a missing
+// newline, gives a short error instead of a scan of the whole file for one record.
+inline constexpr std::size_t kMaxRecordLineBytes = std::size_t{1} << 20;
+
+// Throws unless line `number` fits in `limit` bytes.
+void check_line_length(const std::filesystem::path& path, std::string_view line, std::size_t number,
+                       std::size_t limit);
+
 // A token quoted for an error message: truncated, control bytes replaced, so that a binary file
 // misread as text cannot garble the message.
 std::string quoted(std::string_view token);
