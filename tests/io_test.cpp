@@ -823,5 +823,26 @@ INSTANTIATE_TEST_SUITE_P(
                       "lines 2-4: rotation has determinant -1 (a reflection"}),
     [](const auto& info) { return info.param.name; });
 
+// ---- the fuzzers' seed corpus (fuzz/corpus) ----
+
+// The seeds are meant to be valid files of every encoding, so that fuzzing starts from deep inside
+// the parsers; one that stopped parsing would quietly weaken scripts/fuzz.sh.
+TEST(FuzzSeedCorpus, EverySeedReads) {
+  const fs::path corpus(ALIGN3D_FUZZ_CORPUS_DIR);
+  std::size_t seeds = 0;
+  for (const char* format : {"ply", "pcd", "xyz"}) {
+    for (const auto& entry : fs::directory_iterator(corpus / format)) {
+      ReadInfo info;
+      EXPECT_NO_THROW(EXPECT_GE(read_point_cloud(entry.path(), &info).size(), 2u)) << entry.path();
+      ++seeds;
+    }
+  }
+  for (const auto& entry : fs::directory_iterator(corpus / "matrix")) {
+    EXPECT_NO_THROW(read_matrix(entry.path())) << entry.path();
+    ++seeds;
+  }
+  EXPECT_GE(seeds, 16u);
+}
+
 }  // namespace
 }  // namespace align3d::io

@@ -1,4 +1,5 @@
 // align3d rectify CLOUD: plane correction (chapter 39.5, plane/rectify.hpp).
+#include "align3d/error.hpp"
 #include "align3d/io/point_cloud_io.hpp"
 #include "align3d/plane/rectify.hpp"
 #include "common.hpp"
@@ -43,7 +44,12 @@ Command add_rectify(CLI::App& app, Streams io) {
             s.robust = o->robust;
             s.ransac.seed = o->seed;
             if (!o->up.empty()) s.up = parse_vector(o->up, "--up");
-            const RectifyResult r = rectify(cloud, s);
+            RectifyResult r;
+            try {
+              r = rectify(cloud, s);
+            } catch (const DataError& e) {
+              throw DataError(o->cloud + ": " + e.what());  // which file has no plane
+            }
             if (!o->output.empty())
               io::write_point_cloud(o->output, transformed(cloud, r.transformation));
             nlohmann::json report = rectify_json(r);

@@ -110,6 +110,9 @@ int run_register(const RegisterOptions& o, Streams io) {
       o.init == "identity" || global ? Eigen::Isometry3d::Identity() : io::read_matrix(o.init);
   std::optional<Eigen::Isometry3d> truth;
   if (!o.ground_truth.empty()) truth = io::read_matrix(o.ground_truth);
+  // Checked here as well as in register_clouds so that the message names the file, not the role.
+  check_registrable(source, o.source + " (source)");
+  check_registrable(target, o.target + " (target)");
 
   RegistrationSettings settings;
   settings.method =

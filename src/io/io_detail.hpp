@@ -37,6 +37,15 @@ inline constexpr std::size_t kMaxHeaderBytes = std::size_t{1} << 20;
 // Throws IoError("<path>: <problem>").
 [[noreturn]] void fail(const std::filesystem::path& path, const std::string& problem);
 
+// A data line of a PLY or PCD ascii body longer than this is refused (PCL's largest descriptors
+// take a few tens of kB as text), so that a binary body under an ascii header, or a missing
+// newline, gives a short error instead of a scan of the whole file for one record.
+inline constexpr std::size_t kMaxRecordLineBytes = std::size_t{1} << 20;
+
+// Throws unless line `number` fits in `limit` bytes.
+void check_line_length(const std::filesystem::path& path, std::string_view line, std::size_t number,
+                       std::size_t limit);
+
 // A token quoted for an error message: truncated, control bytes replaced, so that a binary file
 // misread as text cannot garble the message.
 std::string quoted(std::string_view token);
@@ -346,5 +355,8 @@ class CloudBuilder {
 PointCloud read_ply(const std::filesystem::path& path, std::string_view data, std::size_t& dropped);
 PointCloud read_pcd(const std::filesystem::path& path, std::string_view data, std::size_t& dropped);
 PointCloud read_xyz(const std::filesystem::path& path, std::string_view data, std::size_t& dropped);
+
+// The matrix reader (matrix_io.hpp) given the whole file's bytes.
+Eigen::Isometry3d parse_matrix(const std::filesystem::path& path, std::string_view data);
 
 }  // namespace align3d::io::detail

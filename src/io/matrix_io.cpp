@@ -22,9 +22,9 @@ std::string line_name(std::size_t line) { return "line " + std::to_string(line);
 
 }  // namespace
 
-Eigen::Isometry3d read_matrix(const std::filesystem::path& path) {
-  const auto file = detail::read_file(path, kMaxMatrixFileBytes);
-  const std::string_view data = file.view();
+namespace detail {
+
+Eigen::Isometry3d parse_matrix(const std::filesystem::path& path, std::string_view data) {
   detail::LineCursor lines(data.data(), data.data() + data.size());
   Eigen::Matrix4d m;
   std::array<std::size_t, 4> row_line{};
@@ -85,6 +85,13 @@ Eigen::Isometry3d read_matrix(const std::filesystem::path& path) {
   T.linear() = svd.matrixU() * svd.matrixV().transpose();
   T.translation() = m.topRightCorner<3, 1>();
   return T;
+}
+
+}  // namespace detail
+
+Eigen::Isometry3d read_matrix(const std::filesystem::path& path) {
+  const auto file = detail::read_file(path, kMaxMatrixFileBytes);
+  return detail::parse_matrix(path, file.view());
 }
 
 void write_matrix(const std::filesystem::path& path, const Eigen::Isometry3d& T) {

@@ -81,6 +81,8 @@ PcdHeader parse_header(const std::filesystem::path& path, std::string_view data)
   detail::LineCursor lines(data.data(), data.data() + data.size());
   std::vector<std::string_view> names, sizes, types, counts;
   std::optional<std::uint64_t> width, height, points;
+  // Where each keyword was seen, for the errors found once the whole header is known.
+  std::size_t sizes_line = 0, types_line = 0, counts_line = 0, points_line = 0, height_line = 0;
   PcdHeader header;
   std::string_view line;
   for (;;) {
@@ -100,16 +102,21 @@ PcdHeader parse_header(const std::filesystem::path& path, std::string_view data)
       names = rest;
     } else if (keyword == "SIZE") {
       sizes = rest;
+      sizes_line = lines.number();
     } else if (keyword == "TYPE") {
       types = rest;
+      types_line = lines.number();
     } else if (keyword == "COUNT") {
       counts = rest;
+      counts_line = lines.number();
     } else if (keyword == "WIDTH") {
       width = single_count(path, where, words);
     } else if (keyword == "HEIGHT") {
       height = single_count(path, where, words);
+      height_line = lines.number();
     } else if (keyword == "POINTS") {
       points = single_count(path, where, words);
+      points_line = lines.number();
     } else if (keyword == "DATA") {
       if (words.size() != 2) fail(path, where + "expected 'DATA ascii|binary|binary_compressed'");
       if (words[1] == "ascii") {
@@ -130,15 +137,19 @@ PcdHeader parse_header(const std::filesystem::path& path, std::string_view data)
   header.line_count = lines.number();
 
   if (names.empty()) fail(path, "header has no FIELDS line");
-  const auto check_entries = [&](const std::vector<std::string_view>& list, const char* what) {
+  const auto at = [](std::size_t line) {
+    return line == 0 ? std::string() : "line " + std::to_string(line) + ": ";
+  };
+  const auto check_entries = [&](const std::vector<std::string_view>& list, const char* what,
+                                 std::size_t line) {
     if (list.size() != names.size()) {
-      fail(path, std::string(what) + " has " + std::to_string(list.size()) +
+      fail(path, at(line) + what + " has " + std::to_string(list.size()) +
                      " entries but FIELDS has " + std::to_string(names.size()));
     }
   };
-  check_entries(sizes, "SIZE");
-  check_entries(types, "TYPE");
-  if (!counts.empty()) check_entries(counts, "COUNT");
+  check_entries(sizes, "SIZE", sizes_line);
+  check_entries(types, "TYPE", types_line);
+  if (!counts.empty()) check_entries(counts, "COUNT", counts_line);
 
   for (std::size_t i = 0; i < names.size(); ++i) {
     PcdField field;
@@ -146,15 +157,17 @@ PcdHeader parse_header(const std::filesystem::path& path, std::string_view data)
     std::uint64_t size = 0;
     std::uint64_t count = 1;
     if (!detail::parse_u64(sizes[i], size)) {
-      fail(path, "bad SIZE " + quoted(sizes[i]) + " for field '" + field.name + "'");
+      fail(path,
+           at(sizes_line) + "bad SIZE " + quoted(sizes[i]) + " for field '" + field.name + "'");
     }
     if (types[i].size() != 1 || !to_scalar_type(types[i][0], size, field.type)) {
-      fail(path, "unsupported TYPE " + quoted(types[i]) + " with SIZE " + std::string(sizes[i]) +
-                     " for field '" + field.name + "'");
+      fail(path, at(types_line) + "unsupported TYPE " + quoted(types[i]) + " with SIZE " +
+                     std::string(sizes[i]) + " for field '" + field.name + "'");
     }
     if (!counts.empty() &&
         (!detail::parse_u64(counts[i], count) || count == 0 || count > kMaxFieldCount)) {
-      fail(path, "bad COUNT " + quoted(counts[i]) + " for field '" + field.name + "'");
+      fail(path,
+           at(counts_line) + "bad COUNT " + quoted(counts[i]) + " for field '" + field.name + "'");
     }
     field.count = static_cast<std::size_t>(count);
     field.offset = header.point_bytes;
@@ -166,11 +179,12 @@ PcdHeader parse_header(const std::filesystem::path& path, std::string_view data)
   if (width) {
     const std::uint64_t h = height.value_or(1);
     if (h != 0 && *width > std::numeric_limits<std::uint64_t>::max() / h) {
-      fail(path, "WIDTH * HEIGHT overflows");
+      fail(path, at(height_line) + "WIDTH * HEIGHT overflows");
     }
     if (points && *points != *width * h) {
-      fail(path, "POINTS " + std::to_string(*points) + " does not equal WIDTH * HEIGHT = " +
-                     std::to_string(*width) + " * " + std::to_string(h));
+      fail(path, at(points_line) + "POINTS " + std::to_string(*points) +
+                     " does not equal WIDTH * HEIGHT = " + std::to_string(*width) + " * " +
+                     std::to_string(h));
     }
     header.points = *width * h;
   } else if (points) {
@@ -221,6 +235,10 @@ void read_ascii(const std::filesystem::path& path, std::string_view file, const 
                    " can hold at most " + std::to_string((left + 1) / min_bytes) +
                    " (truncated file?)");
   }
+  // The per-line buffer below has point_values entries, which only the bound above (a file holding
+  // at least one point) ties to the file's size: with no point announced, COUNTs of 2^24 would
+  // allocate gigabytes for nothing.
+  if (header.points == 0) return;
   builder.reserve(static_cast<std::size_t>(header.points));
   // Value position on the line of each field's first value.
   std::vector<std::size_t> first_value(header.fields.size());
@@ -240,6 +258,7 @@ void read_ascii(const std::filesystem::path& path, std::string_view file, const 
                        std::to_string(lines.number()) + ")");
       }
     } while (line.find_first_not_of(" \t\r\v\f") == std::string_view::npos);
+    detail::check_line_length(path, line, lines.number(), detail::kMaxRecordLineBytes);
     // Built only on error: one string per point would dominate the parse time.
     const auto where = [&] { return "line " + std::to_string(lines.number()) + ": "; };
     std::size_t pos = 0;

@@ -395,6 +395,7 @@ void read_ascii(const std::filesystem::path& path, std::string_view file, const 
                          std::to_string(r) + " (line " + std::to_string(lines.number()) + ")");
         }
       } while (is_blank(line));
+      detail::check_line_length(path, line, lines.number(), detail::kMaxRecordLineBytes);
       // Built only on error: one string per record would dominate the parse time.
       const auto where = [&] { return "line " + std::to_string(lines.number()) + ": "; };
       std::size_t pos = 0;

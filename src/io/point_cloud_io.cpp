@@ -16,6 +16,14 @@ void fail(const std::filesystem::path& path, const std::string& problem) {
   throw IoError(path.string() + ": " + problem);
 }
 
+void check_line_length(const std::filesystem::path& path, std::string_view line, std::size_t number,
+                       std::size_t limit) {
+  if (line.size() > limit) {
+    fail(path,
+         "line " + std::to_string(number) + " is longer than " + std::to_string(limit) + " bytes");
+  }
+}
+
 std::string quoted(std::string_view token) {
   constexpr std::size_t kMaxShown = 40;
   std::string out = "'";

@@ -34,10 +34,7 @@ PointCloud read_xyz(const std::filesystem::path& path, std::string_view data,
   std::string_view line;
   bool seen_row = false;
   while (lines.next(line)) {
-    if (line.size() > kMaxLineBytes) {
-      fail(path, "line " + std::to_string(lines.number()) + " is longer than " +
-                     std::to_string(kMaxLineBytes) + " bytes (not a text point file?)");
-    }
+    check_line_length(path, line, lines.number(), kMaxLineBytes);
     const auto first = line.find_first_not_of(" \t\r\v\f");
     if (first == std::string_view::npos || line[first] == '#') continue;
     std::array<double, 3> xyz{};

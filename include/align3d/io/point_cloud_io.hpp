@@ -3,7 +3,8 @@
 //                   any other scalar type too), nx ny nz when present; other properties and
 //                   elements (faces, ...) are skipped.
 //   .pcd            ascii, binary, binary_compressed (LZF); fields x y z, normal_x/y/z when
-//   present. .xyz .txt .csv  one point per row: three numbers (separated by spaces, tabs, commas or
+//                   present.
+//   .xyz .txt .csv  one point per row: three numbers (separated by spaces, tabs, commas or
 //                   semicolons), further columns ignored; blank lines and lines starting with '#'
 //                   skipped.
 // Any other extension is an IoError.
@@ -11,14 +12,15 @@
 // Contract for every reader: a missing, unreadable, malformed or truncated file throws IoError
 // whose message starts with the file name and names the problem and, for parse errors, the line
 // (text) or byte offset (binary). Counts announced by a header are checked against the file's real
-// size before anything is allocated. Points with a NaN or Inf coordinate are dropped and counted in
-// ReadInfo::dropped_non_finite; normals that are non-finite or zero make the cloud's normals
-// absent. Other normals are normalised. A file that yields no point (none announced, or all
-// dropped) is an IoError "contains no points" (ReadInfo is filled in first). Text numbers are read
-// independently of the locale; in .xyz/.txt/.csv a run of separators counts as one, and a first row
-// that does not start with a number (a CSV header such as "x,y,z") is skipped. A float32 property
-// (PLY float, PCD F 4) is rounded to float32 even when written as text, so a cloud reads the same
-// from every encoding.
+// size before anything is allocated; a text line longer than a bound (64 KiB for a .xyz row, 1 MiB
+// for a PLY/PCD ascii record or header) is an IoError too. Points with a NaN or Inf coordinate are
+// dropped and counted in ReadInfo::dropped_non_finite; normals that are non-finite or zero make the
+// cloud's normals absent. Other normals are normalised. A file that yields no point (none
+// announced, or all dropped) is an IoError "contains no points" (ReadInfo is filled in first). Text
+// numbers are read independently of the locale; in .xyz/.txt/.csv a run of separators counts as
+// one, and a first row that does not start with a number (a CSV header such as "x,y,z") is skipped.
+// A float32 property (PLY float, PCD F 4) is rounded to float32 even when written as text, so a
+// cloud reads the same from every encoding.
 //
 // Every writer is atomic: it writes a temporary file in the destination's folder and renames it, so
 // the destination holds either the complete new file or whatever it held before (OutputError on
