@@ -6,6 +6,7 @@
 #include <limits>
 #include <stdexcept>
 
+#include "align3d/icp/degeneracy.hpp"
 #include "align3d/icp/factors.hpp"
 #include "align3d/kabsch.hpp"
 #include "align3d/parallel.hpp"
@@ -62,6 +63,7 @@ struct Step {
   double rms = 0;
   std::size_t kept = 0;
   Matrix6d hessian = Matrix6d::Zero();
+  std::vector<WeakDirection> weak;
   bool solvable = false;
 };
 
@@ -130,8 +132,11 @@ Step solve_step(const std::vector<Eigen::Vector3d>& source, const PointCloud& ta
   finish(totals, 6);
   step.hessian = totals.sums.H;
   if (step.solvable) {
-    // Solve H·x = −b; LDLT copes with a semi-definite H (directions the data leaves free).
-    const Vector6d x = totals.sums.H.ldlt().solve(-totals.sums.b);
+    // Solve H·x = −b in the directions the data constrains; the pose does not drift along the
+    // others (degeneracy.hpp).
+    ConstrainedSolve solved = solve_constrained(totals.sums.H, -totals.sums.b);
+    step.weak = std::move(solved.weak);
+    const Vector6d x = solved.x;
     step.solvable = x.allFinite();
     // The small-angle model is re-orthonormalised through the exponential map (se3.hpp).
     if (step.solvable) step.delta = se3_exp(x);
@@ -220,6 +225,7 @@ IcpResult icp(const PointCloud& source, const PointCloud& target, const KdTree& 
   const Step final_step =
       solve_step(moving, target, c, result.T_target_source, centre, threshold, s);
   result.rms = final_step.rms;
+  result.degenerate_directions = final_step.weak;
   result.correspondences = final_step.kept;
   result.fitness = source.empty()
                        ? 0.0

@@ -7,6 +7,7 @@
 #include <Eigen/Geometry>
 #include <vector>
 
+#include "align3d/icp/degeneracy.hpp"
 #include "align3d/icp/rejection.hpp"
 #include "align3d/icp/termination.hpp"
 #include "align3d/kdtree.hpp"
@@ -51,6 +52,10 @@ struct IcpResult {
   // The last point-to-plane system (H of Σ w r², in the frame centred on the target centroid,
   // unknowns ω then v) for judging which directions the data constrains; zero for point-to-point.
   Matrix6d hessian = Matrix6d::Zero();
+  // Directions of that system the data leaves (nearly) free, weakest first (icp/degeneracy.hpp):
+  // every point-to-plane update is solved without moving along them. Empty when all six are
+  // constrained, and always for point-to-point.
+  std::vector<WeakDirection> degenerate_directions;
 };
 
 // Registers `source` onto `target` starting from `init` (target ≈ T·source). `tree` must index
