@@ -25,7 +25,8 @@ Settings, the same for every system:
   N     iteration cap 60 (--max-iterations); convergence at relative RMS change 1e-6.
   K     20 nearest neighbours for normals (--k);  T = threads (--threads, default: all cores).
   V     coarse-stage voxel = L / 50 (--voxel).
-Each task is timed inside the runner after the files are read. Runs are interleaved (A B C A B C
+Each task is timed inside the runner after the files are read (wall clock; CPU time of all the
+process's threads alongside, a check when the machine is busy). Runs are interleaved (A B C A B C
 ...) after --warmup warm-up rounds; the table gives the median time of --runs runs. Peak memory is
 the whole process's maximum resident set (getrusage), so it includes each library's own footprint;
 bytes/point divides it by source + target points.
@@ -67,9 +68,14 @@ def transform(R, t):
 
 
 def rotation_error_deg(T, truth):
-    # angle of R_estᵀ·R_gt: trace = Σ_ij R_est[i][j]·R_gt[i][j]
-    tr = sum(T[i][j] * truth[i][j] for i in range(3) for j in range(3))
-    return math.degrees(math.acos(max(-1.0, min(1.0, (tr - 1) / 2))))
+    """Angle of E = R_estᵀ·R_gt, from both its trace and its skew part (atan2), so that it stays
+    accurate for tiny angles and for single-precision matrices (PCL's), where acos of the trace
+    alone would round 1e-3° to 0 or to 0.02°."""
+    E = [[sum(T[k][i] * truth[k][j] for k in range(3)) for j in range(3)] for i in range(3)]
+    c = (E[0][0] + E[1][1] + E[2][2] - 1) / 2
+    s = 0.5 * math.sqrt((E[2][1] - E[1][2]) ** 2 + (E[0][2] - E[2][0]) ** 2 +
+                        (E[1][0] - E[0][1]) ** 2)
+    return math.degrees(math.atan2(s, c))
 
 
 def translation_error(T, truth):
@@ -325,9 +331,10 @@ def main():
                 name = runners[key][0]
                 if not runs:
                     if not (key == "align3d-auto" and task in ("global", "normals")):
-                        rows.append([label, "", name, task, "failed"] + [""] * 8)
+                        rows.append([label, "", name, task, "failed"] + [""] * 9)
                     continue
                 med = statistics.median(r["time_ms"] for r in runs)
+                cpu = statistics.median(r.get("cpu_ms", math.nan) for r in runs)
                 if key == "align3d":
                     reference = med
                 first = runs[0]
@@ -345,15 +352,15 @@ def main():
                         notes.append(f"{label} {task}, {name}: stop {', '.join(stops)}")
                 rows.append([label, f"{first['points_source']} / {first['points_target']}", name,
                              task, fmt(first["iterations"]), fmt(first["rms"], 4), fmt(rot, 3),
-                             fmt(trans, 3), fmt(med, 3), fmt(rss_kb / 1024, 3),
+                             fmt(trans, 3), fmt(med, 3), fmt(cpu, 3), fmt(rss_kb / 1024, 3),
                              fmt(rss_kb * 1024 / points, 3),
                              fmt(med / reference, 3) if reference else "—", len(runs)])
 
     print(f"\n{os.cpu_count()} cores, {args.threads} threads, init {args.init}, "
           f"{args.warmup} warm-up + {args.runs} interleaved runs (median time)\n")
     print("| scene | points (source / target) | system | task | iterations | RMS | rot err (deg) "
-          "| trans err | time (ms) | peak RSS (MB) | bytes/point | time ÷ align3d | runs |")
-    print("|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+          "| trans err | time (ms) | CPU (ms) | peak RSS (MB) | bytes/point | time ÷ align3d | runs |")
+    print("|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
     for row in rows:
         print("| " + " | ".join(str(c) for c in row) + " |")
     if notes:

@@ -68,7 +68,7 @@ bench::Report run(const bench::RunnerArgs& a) {
     ns.k = a.k;
     ns.threads = a.threads;
     std::size_t undefined = 0;
-    r.time_ms = bench::time_ms([&] {
+    bench::timed(r, [&] {
       const align3d::KdTree tree(target.positions);
       undefined = align3d::estimate_normals(target, tree, ns).undefined;
     });
@@ -87,7 +87,7 @@ bench::Report run(const bench::RunnerArgs& a) {
     gs.threads = a.threads;
     gs.seed = 1;
     align3d::GlobalResult g;
-    r.time_ms = bench::time_ms([&] { g = align3d::global_register(source, target, gs); });
+    bench::timed(r, [&] { g = align3d::global_register(source, target, gs); });
     r.transformation = to_matrix4(g.T_target_source);
     r.extra["success"] = g.success ? "true" : "false";
     r.extra["hypotheses"] = std::to_string(g.candidates);
@@ -106,7 +106,7 @@ bench::Report run(const bench::RunnerArgs& a) {
   rs.normals.k = a.k;
   rs.threads = a.threads;
   align3d::RegistrationResult result;
-  r.time_ms = bench::time_ms([&] { result = align3d::register_clouds(source, target, init, rs); });
+  bench::timed(r, [&] { result = align3d::register_clouds(source, target, init, rs); });
   r.iterations = result.total_iterations;
   r.transformation = to_matrix4(result.icp.T_target_source);
   r.extra["converged"] = result.icp.converged ? "true" : "false";

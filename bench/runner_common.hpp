@@ -16,6 +16,7 @@
 #pragma once
 
 #include <sys/resource.h>
+#include <time.h>
 
 #include <array>
 #include <chrono>
@@ -125,15 +126,6 @@ inline Matrix4 read_matrix4(const std::string& path) {
   return m;
 }
 
-// Wall-clock milliseconds of f().
-template <class F>
-double time_ms(F&& f) {
-  const auto start = std::chrono::steady_clock::now();
-  f();
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
-      .count();
-}
-
 inline long peak_rss_kb() {
   rusage u{};
   getrusage(RUSAGE_SELF, &u);
@@ -142,7 +134,9 @@ inline long peak_rss_kb() {
 
 struct Report {
   std::string system, task;
-  double time_ms = 0;
+  double time_ms = 0;   // wall clock of the work (set by timed())
+  double cpu_ms = 0;    // CPU time of the whole process meanwhile, all threads (OpenMP spin-waits
+                        // included), a check on wall times taken on a busy machine
   int iterations = -1;  // < 0: not applicable / not reported (null)
   // Measured the same way by every runner, outside the timed region, at the final pose: each
   // source point paired with its nearest target point when closer than --max-distance; rms =
@@ -152,6 +146,20 @@ struct Report {
   std::size_t points_source = 0, points_target = 0;
   std::map<std::string, std::string> extra;  // further fields, values already JSON
 };
+
+// Runs f() and sets r.time_ms and r.cpu_ms.
+template <class F>
+void timed(Report& r, F&& f) {
+  timespec cpu0{}, cpu1{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &cpu0);
+  const auto start = std::chrono::steady_clock::now();
+  f();
+  r.time_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &cpu1);
+  r.cpu_ms = 1e3 * static_cast<double>(cpu1.tv_sec - cpu0.tv_sec) +
+             1e-6 * static_cast<double>(cpu1.tv_nsec - cpu0.tv_nsec);
+}
 
 inline std::string json_number(double x) {
   if (!std::isfinite(x)) return "null";
@@ -179,6 +187,8 @@ inline void print_report(const Report& r) {
   s += json_string(r.task);
   s += ",\"time_ms\":";
   s += json_number(r.time_ms);
+  s += ",\"cpu_ms\":";
+  s += json_number(r.cpu_ms);
   s += ",\"iterations\":";
   s += r.iterations < 0 ? std::string("null") : std::to_string(r.iterations);
   s += ",\"rms\":";

@@ -96,8 +96,7 @@ bench::Report run(const bench::RunnerArgs& a) {
   const Eigen::Matrix4d init = from_matrix4(bench::read_matrix4(a.init));
 
   if (a.task == "normals") {
-    r.time_ms =
-        bench::time_ms([&] { target.EstimateNormals(o3d::geometry::KDTreeSearchParamKNN(a.k)); });
+    bench::timed(r, [&] { target.EstimateNormals(o3d::geometry::KDTreeSearchParamKNN(a.k)); });
     double sum_abs_z = 0;
     for (const auto& n : target.normals_) sum_abs_z += std::abs(n.z());
     r.extra["normals_mean_abs_z"] =
@@ -110,7 +109,7 @@ bench::Report run(const bench::RunnerArgs& a) {
         a.voxel > 0 ? a.voxel : (target.GetMaxBound() - target.GetMinBound()).norm() / 50.0;
     o3d::utility::random::Seed(1);
     reg::RegistrationResult g;
-    r.time_ms = bench::time_ms([&] {
+    bench::timed(r, [&] {
       auto prepare = [&](const o3d::geometry::PointCloud& cloud) {
         std::shared_ptr<o3d::geometry::PointCloud> down = cloud.VoxelDownSample(voxel);
         down->EstimateNormals(o3d::geometry::KDTreeSearchParamKNN(a.k));
@@ -136,13 +135,13 @@ bench::Report run(const bench::RunnerArgs& a) {
   reg::RegistrationResult result;
   if (a.task == "icp-point") {
     const Counting<reg::TransformationEstimationPointToPoint> estimation;
-    r.time_ms = bench::time_ms([&] {
+    bench::timed(r, [&] {
       result = reg::RegistrationICP(source, target, a.max_distance, init, estimation, criteria);
     });
     r.iterations = estimation.calls;
   } else {
     const Counting<reg::TransformationEstimationPointToPlane> estimation;
-    r.time_ms = bench::time_ms([&] {
+    bench::timed(r, [&] {
       target.EstimateNormals(o3d::geometry::KDTreeSearchParamKNN(a.k));
       result = reg::RegistrationICP(source, target, a.max_distance, init, estimation, criteria);
     });

@@ -120,7 +120,7 @@ bench::Report run(const bench::RunnerArgs& a) {
 
   if (a.task == "normals") {
     pcl::PointCloud<pcl::Normal> normals;
-    r.time_ms = bench::time_ms([&] {
+    bench::timed(r, [&] {
       pcl::NormalEstimationOMP<pcl::PointXYZ, pcl::Normal> ne(a.threads);
       ne.setInputCloud(target);
       ne.setKSearch(a.k);
@@ -140,7 +140,7 @@ bench::Report run(const bench::RunnerArgs& a) {
     Eigen::Matrix4f T = Eigen::Matrix4f::Identity();
     bool converged = false;
     std::size_t inliers = 0;
-    r.time_ms = bench::time_ms([&] {
+    bench::timed(r, [&] {
       auto prepare = [&](const Cloud::Ptr& cloud, Cloud::Ptr& down, Features::Ptr& features) {
         down.reset(new Cloud);
         pcl::VoxelGrid<pcl::PointXYZ> grid;
@@ -195,7 +195,7 @@ bench::Report run(const bench::RunnerArgs& a) {
     Counting<pcl::IterativeClosestPoint<pcl::PointXYZ, pcl::PointXYZ>> icp;
     configure(icp, a, diag);
     Cloud aligned;
-    r.time_ms = bench::time_ms([&] {
+    bench::timed(r, [&] {
       icp.setInputSource(source);
       icp.setInputTarget(target);
       icp.align(aligned, init);
@@ -213,7 +213,7 @@ bench::Report run(const bench::RunnerArgs& a) {
     Counting<pcl::IterativeClosestPointWithNormals<pcl::PointNormal, pcl::PointNormal>> icp;
     configure(icp, a, diag);
     NormalCloud aligned;
-    r.time_ms = bench::time_ms([&] {
+    bench::timed(r, [&] {
       pcl::NormalEstimationOMP<pcl::PointNormal, pcl::PointNormal> ne(a.threads);
       ne.setInputCloud(target_n);
       ne.setKSearch(a.k);
