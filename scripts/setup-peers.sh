@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Installs the peer libraries used only by the side-by-side comparisons in bench/ (not by the build
-# or the tests): Debian's Open3D for Python.
+# Installs the peer libraries used only by the side-by-side comparisons in bench/ (not by the build,
+# the tests or CI): Debian's Open3D 0.16 and PCL 1.13 C++ development packages for the runners in
+# bench/peers/ (bench/compare.py), and Open3D for Python for bench/compare_global.py.
 set -euo pipefail
-exec bash "$(dirname "$0")/setup.sh" python3-open3d python3-numpy
+exec bash "$(dirname "$0")/setup.sh" libopen3d-dev libpcl-dev python3-open3d python3-numpy

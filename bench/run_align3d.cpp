@@ -1,0 +1,122 @@
+// align3d_run: align3d's runner for the side-by-side comparison (bench/compare.py); the contract is
+// in bench/runner_common.hpp. Uses only the public API.
+//   normals    KdTree + estimate_normals (k = K)
+//   icp-*      register_clouds with rejection distance:D (one ICP run, plain least squares: no
+//              robust kernel), tolerance 1e-6 relative, the transform criterion left on (its
+//              default); target normals are estimated inside (k = K) for point-to-plane.
+//              --auto: the same but with no rejection rule, i.e. the library's `auto` schedule.
+//   global     global_register, FPFH + RANSAC (the `--init global` coarse stage), seed 1
+#include <omp.h>
+
+#include <Eigen/Geometry>
+#include <cmath>
+
+#include "align3d/coarse/global.hpp"
+#include "align3d/icp/icp.hpp"
+#include "align3d/io/matrix_io.hpp"
+#include "align3d/io/point_cloud_io.hpp"
+#include "align3d/kdtree.hpp"
+#include "align3d/normals.hpp"
+#include "align3d/registration.hpp"
+#include "runner_common.hpp"
+
+namespace {
+
+using align3d::PointCloud;
+
+bench::Matrix4 to_matrix4(const Eigen::Isometry3d& T) {
+  bench::Matrix4 m;
+  for (int i = 0; i < 4; ++i)
+    for (int j = 0; j < 4; ++j) m[i][j] = T.matrix()(i, j);
+  return m;
+}
+
+// The common untimed evaluation (runner_common.hpp: Report::rms, fitness).
+void evaluate(const PointCloud& source, const PointCloud& target, const Eigen::Isometry3d& T,
+              double max_distance, bench::Report& r) {
+  if (!(max_distance > 0)) return;
+  const align3d::KdTree tree(target.positions);
+  double sum = 0;
+  std::size_t pairs = 0;
+  align3d::Neighbor nb;
+  for (const auto& p : source.positions) {
+    if (tree.nearest(T * p, nb, max_distance * max_distance)) {
+      sum += nb.sq_distance;
+      ++pairs;
+    }
+  }
+  r.rms = pairs ? std::sqrt(sum / static_cast<double>(pairs)) : NAN;
+  r.fitness = static_cast<double>(pairs) / static_cast<double>(source.size());
+}
+
+bench::Report run(const bench::RunnerArgs& a) {
+  omp_set_num_threads(a.threads);
+  const bool automatic = a.flags.count("--auto") > 0;
+  bench::Report r;
+  r.system = automatic ? "align3d (auto)" : "align3d";
+  r.task = a.task;
+  const PointCloud source = align3d::io::read_point_cloud(a.source);
+  PointCloud target = align3d::io::read_point_cloud(a.target);
+  target.normals.clear();  // every system estimates them, inside the timed region
+  r.points_source = source.size();
+  r.points_target = target.size();
+  const Eigen::Isometry3d init =
+      a.init.empty() ? Eigen::Isometry3d::Identity() : align3d::io::read_matrix(a.init);
+
+  if (a.task == "normals") {
+    align3d::NormalSettings ns;
+    ns.k = a.k;
+    ns.threads = a.threads;
+    std::size_t undefined = 0;
+    bench::timed(r, [&] {
+      const align3d::KdTree tree(target.positions);
+      undefined = align3d::estimate_normals(target, tree, ns).undefined;
+    });
+    double sum_abs_z = 0;
+    for (const auto& n : target.normals) sum_abs_z += std::abs(n.z());
+    r.extra["normals_mean_abs_z"] =
+        bench::json_number(sum_abs_z / static_cast<double>(target.size()));
+    r.extra["normals_undefined"] = std::to_string(undefined);
+    return r;
+  }
+
+  if (a.task == "global") {
+    align3d::GlobalSettings gs;
+    gs.method = align3d::GlobalMethod::kFpfh;
+    gs.voxel = a.voxel;
+    gs.threads = a.threads;
+    gs.seed = 1;
+    align3d::GlobalResult g;
+    bench::timed(r, [&] { g = align3d::global_register(source, target, gs); });
+    r.transformation = to_matrix4(g.T_target_source);
+    r.extra["success"] = g.success ? "true" : "false";
+    r.extra["hypotheses"] = std::to_string(g.candidates);
+    r.extra["voxel"] = bench::json_number(g.voxel);
+    evaluate(source, target, g.T_target_source, a.max_distance, r);
+    return r;
+  }
+
+  align3d::RegistrationSettings rs;
+  rs.method =
+      a.task == "icp-point" ? align3d::IcpMethod::kPointToPoint : align3d::IcpMethod::kPointToPlane;
+  if (!automatic) rs.rejection = align3d::RejectionRule::max_distance(a.max_distance);
+  rs.max_iterations = a.max_iterations;
+  rs.tolerance = 1e-6;
+  rs.tolerance_relative = true;
+  rs.normals.k = a.k;
+  rs.threads = a.threads;
+  align3d::RegistrationResult result;
+  bench::timed(r, [&] { result = align3d::register_clouds(source, target, init, rs); });
+  r.iterations = result.total_iterations;
+  r.transformation = to_matrix4(result.icp.T_target_source);
+  r.extra["converged"] = result.icp.converged ? "true" : "false";
+  r.extra["stop"] = bench::json_string(align3d::to_string(result.icp.stop_reason));
+  evaluate(source, target, result.icp.T_target_source, a.max_distance, r);
+  return r;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  return bench::runner_main(argc, argv, "align3d", run, {"--auto"});
+}
