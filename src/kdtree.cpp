@@ -62,7 +62,7 @@ struct KdTree::Impl {
       tree.vAcc[k] = static_cast<std::uint32_t>(k);
     }
   }
-  static constexpr std::size_t kLeafSize = 16;
+  static constexpr std::size_t kLeafSize = 8;
   std::vector<Eigen::Vector3d> points;  // in leaf order
   std::vector<std::uint32_t> original;  // points[k] == input[original[k]]
   Adaptor adaptor;

@@ -19,6 +19,9 @@ constexpr double kFinalSpacings = 3.0;        // final τ >= 3 s
 constexpr double kFinalSigmas = 4.0;          // final τ >= 4 σ̂
 constexpr int kCoarseIterations = 30;
 constexpr int kMaxStages = 12;  // L/8 · 2^-12 is far below any useful spacing
+// Coarse-to-fine in resolution too: the coarse stages see at most this many source points (every
+// m-th along the Morton curve, an even thinning), the final stage all of them.
+constexpr std::size_t kCoarsePoints = 50000;
 
 void append(RegistrationResult& out, const IcpResult& r, const IcpSettings& s) {
   StageRecord stage;
@@ -122,6 +125,15 @@ RegistrationResult register_clouds(const PointCloud& source, const PointCloud& t
   out.point_spacing = spacing;
   const double floor = kFinalSpacings * spacing;
 
+  PointCloud thinned;
+  if (source.size() > kCoarsePoints) {
+    const std::vector<std::uint32_t> order = spatial_order(source.positions);
+    const std::size_t step = (source.size() + kCoarsePoints - 1) / kCoarsePoints;
+    for (std::size_t k = 0; k < order.size(); k += step)
+      thinned.positions.push_back(source.positions[order[k]]);
+  }
+  const PointCloud& coarse_source = thinned.empty() ? source : thinned;
+
   Eigen::Isometry3d T = init;
   IcpSettings coarse = last;
   coarse.method = IcpMethod::kPointToPlane;
@@ -135,7 +147,7 @@ RegistrationResult register_clouds(const PointCloud& source, const PointCloud& t
   for (int stage = 0; stage < kMaxStages && tau > floor; ++stage, tau *= kShrink) {
     coarse.rejection = RejectionRule::max_distance(tau);
     coarse.robust_scale = kKernelFraction * tau;
-    const IcpResult r = icp(source, target, tree, T, coarse);
+    const IcpResult r = icp(coarse_source, target, tree, T, coarse);
     append(out, r, coarse);
     if (r.stop_reason == StopReason::kTooFewCorrespondences) break;
     T = r.T_target_source;

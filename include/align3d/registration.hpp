@@ -11,6 +11,8 @@
 //      stays in reach long enough to fix x, y and yaw;
 //   3. once τ is down to 3 s, the requested metric runs to convergence with τ = max(3 s, 4 σ̂)
 //      (σ̂: the point-to-plane RMS of the last stage, i.e. the noise), still weighted.
+// On large clouds the coarse stages of step 2 use an even thinning of the source to at most 50 000
+// points (every m-th point along a Morton curve); the final stage uses every point.
 // Target normals are computed for `auto` whatever the final metric. Measured on the conveyor
 // variants and partial object views of tests/registration_test.cpp; the point-to-point coarse
 // stages we tried first slid along the plane toward the intruder wall on the wide-plane variant.

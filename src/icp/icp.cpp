@@ -97,6 +97,16 @@ PairTotals<Sums> reduce_pairs(const std::vector<Eigen::Vector3d>& source, const 
       });
 }
 
+// Per candidate direction of the system, the part of its eigenvalue held by pairs aligned with it
+// (degeneracy.hpp).
+struct AlignedSupport {
+  Vector6d sum = Vector6d::Zero();
+  AlignedSupport& operator+=(const AlignedSupport& o) {
+    sum += o.sum;
+    return *this;
+  }
+};
+
 // Evaluates the kept pairs at pose T and solves for the update (in coordinates about `centre`).
 Step solve_step(const std::vector<Eigen::Vector3d>& source, const PointCloud& target,
                 const Correspondences& c, const Eigen::Isometry3d& T, const Eigen::Vector3d& centre,
@@ -134,7 +144,27 @@ Step solve_step(const std::vector<Eigen::Vector3d>& source, const PointCloud& ta
   if (step.solvable) {
     // Solve H·x = −b in the directions the data constrains; the pose does not drift along the
     // others (degeneracy.hpp).
-    ConstrainedSolve solved = solve_constrained(totals.sums.H, -totals.sums.b);
+    const SystemAnalysis a = analyse_system(totals.sums.H);
+    Vector6d aligned = Vector6d::Zero();
+    if (a.usable && a.candidate(0)) {
+      const auto support = reduce_pairs<AlignedSupport>(
+          source, target, c, T, centre, threshold, s.threads,
+          [&](AlignedSupport& sums, const Eigen::Vector3d& p, const Eigen::Vector3d& q,
+              std::size_t j, double) {
+            const Eigen::Vector3d& normal = target.normals[j];
+            const double r = PointToPlaneFactor::residual(p, q, normal);
+            const Vector6d J = a.scale.cwiseProduct(PointToPlaneFactor::jacobian(p, normal));
+            const double w = weight(std::abs(r));
+            for (int i = 0; i < 6 && a.candidate(i); ++i) {
+              const double d = J.dot(a.vectors.col(i));
+              if (d * d >= kAlignedCosine * kAlignedCosine * J.squaredNorm())
+                sums.sum(i) += w * d * d;
+            }
+            return 0.0;
+          });
+      aligned = support.sums.sum;
+    }
+    ConstrainedSolve solved = solve_constrained(a, -totals.sums.b, aligned);
     step.weak = std::move(solved.weak);
     const Vector6d x = solved.x;
     step.solvable = x.allFinite();
