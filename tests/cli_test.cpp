@@ -132,6 +132,23 @@ TEST_F(Cli, RectifyReportsTheTilt) {
   EXPECT_GT(j["normal"][2].get<double>(), 0.0);
 }
 
+// A flat plate constrains only tilt and height: the report lists the three free directions (two
+// translations in the plate, the turn about its normal), stderr warns, and the pose is not moved.
+TEST_F(Cli, RegisterReportsTheDirectionsAPlateLeavesFree) {
+  const CliRun r = run({"register", scene("plate.ply"), scene("plate.ply"), "--report", "-"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.err.find("does not constrain 3 direction(s)"), std::string::npos) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  ASSERT_EQ(j["degenerate_directions"].size(), 3u);
+  for (const auto& w : j["degenerate_directions"]) EXPECT_LT(w["strength"].get<double>(), 0.01);
+  EXPECT_LT(j["rotation_deg"].get<double>(), 1e-6);
+  // The chapter scene is fully constrained: no free direction, no warning.
+  const CliRun full = run({"register", scene("scan.ply"), scene("model.ply"), "--report", "-"});
+  ASSERT_EQ(full.code, 0) << full.err;
+  EXPECT_TRUE(nlohmann::json::parse(full.out)["degenerate_directions"].empty());
+  EXPECT_EQ(full.err.find("does not constrain"), std::string::npos);
+}
+
 // --- bad input: one line naming the file, the documented exit code, nothing written -------------
 
 struct BadCase {

@@ -132,6 +132,31 @@ TEST(PlaneRansac, ThrowsDataErrorWithoutAPlane) {
   EXPECT_THROW(ransac_plane(collinear), DataError);
 }
 
+// Volumes define no plane: a uniform cube and a sphere give slabs holding ~2 % of the points.
+TEST(PlaneRansac, ThrowsDataErrorForABlobOrASphere) {
+  Random rng(12);
+  std::vector<Eigen::Vector3d> cube, sphere;
+  for (int i = 0; i < 3000; ++i) {
+    cube.push_back({rng.uniform(0, 50), rng.uniform(0, 50), rng.uniform(0, 50)});
+    const Eigen::Vector3d d(rng.normal(), rng.normal(), rng.normal());
+    sphere.push_back(40 * d.normalized());
+  }
+  for (const auto* cloud : {&cube, &sphere}) {
+    try {
+      ransac_plane(*cloud);
+      ADD_FAILURE() << "no DataError";
+    } catch (const DataError& e) {
+      EXPECT_NE(std::string(e.what()).find("no plane"), std::string::npos) << e.what();
+    }
+  }
+  for (const auto* cloud : {&cube, &sphere}) EXPECT_THROW(fit_plane(*cloud), DataError);
+  // A plate holding a quarter of the points, the rest a blob above it, still has its plane.
+  std::vector<Eigen::Vector3d> mixed(cube.begin(), cube.begin() + 2250);
+  for (auto& p : mixed) p.z() += 10;
+  for (int i = 0; i < 750; ++i) mixed.push_back({rng.uniform(0, 50), rng.uniform(0, 50), 0});
+  EXPECT_NEAR(std::abs(ransac_plane(mixed).plane.normal.z()), 1.0, 1e-9);
+}
+
 TEST(PlaneRotationToZ, MapsRandomNormalsToPlusZ) {
   Random rng(603);
   for (int i = 0; i < 200; ++i) {

@@ -77,6 +77,11 @@ nlohmann::json registration_json(const RegistrationResult& r, const RegisterOpti
   for (const auto& h : r.history)
     history.push_back({{"rms", h.rms}, {"kept", h.kept}, {"threshold", h.threshold}});
   nlohmann::json stages = nlohmann::json::array();
+  nlohmann::json weak = nlohmann::json::array();
+  for (const auto& w : f.degenerate_directions)
+    weak.push_back({{"rotation", to_json(w.rotation)},
+                    {"translation", to_json(w.translation)},
+                    {"strength", w.strength}});
   for (const auto& s : r.stages)
     stages.push_back({{"metric", s.metric},
                       {"max_distance", s.max_distance},
@@ -95,6 +100,7 @@ nlohmann::json registration_json(const RegistrationResult& r, const RegisterOpti
           {"rms", f.rms},
           {"fitness", f.fitness},
           {"correspondences", f.correspondences},
+          {"degenerate_directions", weak},
           {"history", history},
           {"stages", stages}};
 }
@@ -200,6 +206,11 @@ int run_register(const RegisterOptions& o, Streams io) {
                 o.source +
                     ": registration failed: too few correspondences within the rejection "
                     "threshold (try --reject auto or a larger distance)");
+  if (!r.icp.degenerate_directions.empty())
+    io.err << "align3d: warning: the geometry does not constrain "
+           << r.icp.degenerate_directions.size()
+           << " direction(s) of the pose (a plane, a cylinder, ...); the pose was not moved along "
+              "them (report: degenerate_directions)\n";
   if (!r.icp.converged)
     io.err << "align3d: warning: did not converge (" << to_string(r.icp.stop_reason)
            << "); the pose may be inaccurate\n";

@@ -4,6 +4,8 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <iomanip>
+#include <sstream>
 #include <string>
 
 #include "align3d/error.hpp"
@@ -27,6 +29,10 @@ Plane fit_plane(const std::vector<Eigen::Vector3d>& points,
   const Eigen::Vector3d ev = eig.eigenvalues();  // ascending
   if (!(ev(2) > 0)) throw DataError("all points are at one spot: no plane");
   if (ev(1) <= 1e-12 * ev(2)) throw DataError("all points lie on one line: no plane");
+  // A volume (a blob, a sphere) spreads across any plane about as much as along it; a plate with a
+  // part standing on it (20 % of the points) stays near 0.1.
+  if (ev(0) > kMaxPlaneSpread * ev(1))
+    throw DataError("no plane: the points spread across the best plane as much as along it");
   return {eig.eigenvectors().col(0).normalized(), mean};
 }
 
@@ -77,6 +83,15 @@ RansacPlaneResult ransac_plane(const std::vector<Eigen::Vector3d>& points,
     }
   }
   if (best_count < 3) throw DataError("no plane found: the points are collinear or too few");
+  // A blob, a sphere or scattered points: any slab holds a small share of them.
+  if (static_cast<double>(best_count) < kMinPlaneShare * static_cast<double>(n)) {
+    std::ostringstream msg;
+    msg << "no plane: the best plane holds only " << std::setprecision(2)
+        << 100.0 * static_cast<double>(best_count) / static_cast<double>(n)
+        << " % of the points within " << threshold << " (at least " << 100 * kMinPlaneShare
+        << " % needed)";
+    throw DataError(msg.str());
+  }
 
   RansacPlaneResult result{best, within(points, best, threshold)};
   for (int refit = 0; refit < 2; ++refit) {

@@ -16,7 +16,10 @@ struct Plane {
 };
 
 // Least-squares plane through `points` (all of them, or those listed in `indices`). The normal's
-// sign is unspecified. Throws DataError when fewer than 3 points or they are collinear/coincident.
+// sign is unspecified. Throws DataError when fewer than 3 points, they are collinear/coincident, or
+// they form a volume rather than a surface (smallest covariance eigenvalue > kMaxPlaneSpread × the
+// middle one).
+constexpr double kMaxPlaneSpread = 0.5;
 Plane fit_plane(const std::vector<Eigen::Vector3d>& points,
                 const std::vector<std::size_t>* indices = nullptr);
 
@@ -34,7 +37,10 @@ struct RansacPlaneResult {
 };
 
 // The dominant plane: RANSAC on 3-point samples, then least-squares refits on the inliers, twice,
-// each time re-selecting inliers within max(3 σ̂, threshold / 10). Throws DataError when no plane.
+// each time re-selecting inliers within max(3 σ̂, threshold / 10). Throws DataError when no plane:
+// fewer than 3 usable points, or the best consensus holds less than kMinPlaneShare of the points
+// (a blob, a sphere, scattered points).
+constexpr double kMinPlaneShare = 0.05;
 RansacPlaneResult ransac_plane(const std::vector<Eigen::Vector3d>& points,
                                const RansacPlaneSettings& settings = {});
 
