@@ -5,7 +5,8 @@
 set -euo pipefail
 default_pkgs=(build-essential cmake ninja-build pkg-config ca-certificates clang-format
       libeigen3-dev libnanoflann-dev libcli11-dev nlohmann-json3-dev libfast-float-dev
-      liblzf-dev libcairo2-dev fonts-dejavu-core libgtest-dev libgmock-dev libbenchmark-dev)
+      liblzf-dev libcairo2-dev fonts-dejavu-core libgtest-dev libgmock-dev libbenchmark-dev
+      python3)
 [ $# -gt 0 ] && pkgs=("$@") || pkgs=("${default_pkgs[@]}")
 missing=()
 for p in "${pkgs[@]}"; do
