@@ -135,7 +135,8 @@ std::vector<std::uint32_t> spatial_order(const std::vector<Eigen::Vector3d>& poi
   if (n == 0) return order;
   const Eigen::Array3d scale = 1023.0 / box.sizes().array().max(1e-300);
   for (std::size_t i = 0; i < n; ++i) {
-    const Eigen::Array3d c = ((points[i] - box.min()).array() * scale).min(1023.0).max(0.0);
+    Eigen::Array3d c = ((points[i] - box.min()).array() * scale).min(1023.0).max(0.0);
+    if (!c.allFinite()) c.setZero();  // a NaN or infinite coordinate: any place will do
     key[i] = spread_bits(static_cast<std::uint32_t>(c.x())) |
              spread_bits(static_cast<std::uint32_t>(c.y())) << 1 |
              spread_bits(static_cast<std::uint32_t>(c.z())) << 2;

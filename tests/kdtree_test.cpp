@@ -298,6 +298,12 @@ TEST(SpatialOrder, IsTheStableSortByInterleavedGridCoordinates) {
 TEST(SpatialOrder, HandlesEmptyFlatAndSinglePointInputs) {
   EXPECT_TRUE(spatial_order({}).empty());
   EXPECT_EQ(spatial_order({Eigen::Vector3d(1, 2, 3)}), std::vector<std::uint32_t>{0});
+  // Non-finite coordinates do not break it (the order stays a permutation).
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  std::vector<std::uint32_t> odd = spatial_order(
+      {{0, 0, 0}, {nan, 1, 2}, {1, 1, 1}, {std::numeric_limits<double>::infinity(), 0, 0}});
+  std::sort(odd.begin(), odd.end());
+  EXPECT_EQ(odd, (std::vector<std::uint32_t>{0, 1, 2, 3}));
   // All points on the plane z = 4: the flat axis has zero extent.
   const std::vector<Eigen::Vector3d> flat = {{1, 1, 4}, {0, 0, 4}, {1, 0, 4}, {0, 1, 4}};
   EXPECT_EQ(spatial_order(flat), (std::vector<std::uint32_t>{1, 2, 3, 0}));

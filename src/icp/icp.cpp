@@ -1,6 +1,5 @@
 #include "align3d/icp/icp.hpp"
 
-#include <Eigen/Cholesky>
 #include <cmath>
 #include <cstdint>
 #include <limits>
