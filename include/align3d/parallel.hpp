@@ -15,10 +15,12 @@ namespace align3d {
 // number of cores).
 inline int thread_count(int requested) { return requested > 0 ? requested : omp_get_max_threads(); }
 
-// Calls body(i) for every i in [0, n); iterations must be independent.
+// Calls body(i) for every i in [0, n); iterations must be independent. Threads take runs of 256
+// consecutive i as they become free: runs keep the locality of spatially ordered work, and uneven
+// work (dense and sparse regions) still spreads over the threads.
 template <class Body>
 void parallel_for(std::size_t n, int threads, Body&& body) {
-#pragma omp parallel for schedule(static) num_threads(thread_count(threads))
+#pragma omp parallel for schedule(dynamic, 256) num_threads(thread_count(threads))
   for (std::ptrdiff_t i = 0; i < static_cast<std::ptrdiff_t>(n); ++i)
     body(static_cast<std::size_t>(i));
 }
@@ -32,7 +34,8 @@ Acc parallel_reduce(std::size_t n, int threads, const Acc& zero, Accumulate&& ac
   constexpr std::size_t kChunk = 1024;
   const std::size_t chunks = (n + kChunk - 1) / kChunk;
   std::vector<Acc> partial(chunks, zero);
-#pragma omp parallel for schedule(static) num_threads(thread_count(threads))
+  // Chunks go to whichever thread is free; each chunk's sum does not depend on which one it is.
+#pragma omp parallel for schedule(dynamic) num_threads(thread_count(threads))
   for (std::ptrdiff_t c = 0; c < static_cast<std::ptrdiff_t>(chunks); ++c) {
     const std::size_t begin = static_cast<std::size_t>(c) * kChunk;
     const std::size_t end = std::min(n, begin + kChunk);
