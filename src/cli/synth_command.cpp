@@ -27,6 +27,13 @@ void make_directory(const std::filesystem::path& outdir) {
   if (ec) throw OutputError(outdir.string() + ": cannot create directory: " + ec.message());
 }
 
+// model.ply (the target), scan.ply (the source) and ground_truth.txt (model ≈ T·scan).
+void write_scene_clouds(const std::filesystem::path& outdir, const synth::Scene& scene) {
+  io::write_ply(outdir / "model.ply", scene.model);
+  io::write_ply(outdir / "scan.ply", scene.scan);
+  io::write_matrix(outdir / "ground_truth.txt", scene.T_model_scan);
+}
+
 // The benchmark work cell (synth::make_parts_scene): model.ply, scan.ply, ground_truth.txt and
 // scene.json.
 nlohmann::json write_parts_scene(const std::filesystem::path& outdir, std::uint64_t seed,
@@ -36,9 +43,7 @@ nlohmann::json write_parts_scene(const std::filesystem::path& outdir, std::uint6
   ps.seed = seed;
   ps.points = points;
   const synth::Scene scene = synth::make_parts_scene(ps);
-  io::write_ply(outdir / "model.ply", scene.model);
-  io::write_ply(outdir / "scan.ply", scene.scan);
-  io::write_matrix(outdir / "ground_truth.txt", scene.T_model_scan);
+  write_scene_clouds(outdir, scene);
   const nlohmann::json json = {
       {"units", "mm"},
       {"seed", seed},
@@ -76,9 +81,7 @@ nlohmann::json write_scene(const std::filesystem::path& outdir, std::uint64_t se
   const synth::PlateSettings cps = synth::chapter_plate(seed, true);
   const synth::Plate cluttered = synth::make_plate(cps);
 
-  io::write_ply(outdir / "model.ply", scene.model);
-  io::write_ply(outdir / "scan.ply", scene.scan);
-  io::write_matrix(outdir / "ground_truth.txt", scene.T_model_scan);
+  write_scene_clouds(outdir, scene);
   io::write_ply(outdir / "plate.ply", plate.cloud);
   io::write_ply(outdir / "plate_cluttered.ply", cluttered.cloud);
 

@@ -134,6 +134,13 @@ void add_noise(std::vector<Eigen::Vector3d>& points, double sigma, Random& rng) 
   }
 }
 
+// Moves model-frame points into the scanner's frame and adds the scanner's noise.
+void to_scanner(std::vector<Eigen::Vector3d>& points, const Eigen::Isometry3d& T_scan_model,
+                double sigma, Random& rng) {
+  for (auto& p : points) p = T_scan_model * p;
+  add_noise(points, sigma, rng);
+}
+
 // Appends n points scattered uniformly in the bounding box of `points`; returns n.
 std::size_t add_outliers(std::vector<Eigen::Vector3d>& points, std::size_t n, Random& rng) {
   Eigen::AlignedBox3d box;
@@ -209,8 +216,7 @@ Scene make_conveyor_scene(const ConveyorSettings& s) {
   const Eigen::Isometry3d T_scan_model =
       rigid_transform(s.rotation_deg, s.rotation_axis, s.translation);
   std::vector<Eigen::Vector3d> seen = scene.model.positions;
-  for (auto& p : seen) p = T_scan_model * p;
-  add_noise(seen, s.noise_sigma, rng);
+  to_scanner(seen, T_scan_model, s.noise_sigma, rng);
   // Crop the left side away: keep the scan_model_points points farthest to the right (+x).
   std::stable_sort(
       seen.begin(), seen.end(),
@@ -276,8 +282,7 @@ Scene make_object_scene(const ObjectSettings& s) {
   seen.resize(static_cast<std::size_t>(s.overlap * static_cast<double>(seen.size())));
   const Eigen::Isometry3d T_scan_model =
       rigid_transform(s.rotation_deg, s.rotation_axis, s.translation);
-  for (auto& p : seen) p = T_scan_model * p;
-  add_noise(seen, s.noise_sigma, rng);
+  to_scanner(seen, T_scan_model, s.noise_sigma, rng);
   scene.scan_corresponding = seen.size();
   scene.scan_outliers =
       add_outliers(seen,
@@ -337,8 +342,7 @@ Scene make_parts_scene(const PartsSettings& s) {
   seen.resize(static_cast<std::size_t>(s.points));
   const Eigen::Isometry3d T_scan_model =
       rigid_transform(s.rotation_deg, s.rotation_axis, s.translation);
-  for (auto& p : seen) p = T_scan_model * p;
-  add_noise(seen, s.noise_sigma, rng);
+  to_scanner(seen, T_scan_model, s.noise_sigma, rng);
   scene.scan_corresponding = seen.size();
   scene.scan_outliers =
       add_outliers(seen, static_cast<std::size_t>(s.outlier_fraction * s.points), rng);
