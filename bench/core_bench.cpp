@@ -3,12 +3,16 @@
 // These measure align3d alone; speed claims against peers need the side-by-side comparison.
 #include <benchmark/benchmark.h>
 
+#include <cstdint>
+#include <limits>
 #include <map>
+#include <vector>
 
 #include "align3d/kdtree.hpp"
 #include "align3d/normals.hpp"
 #include "align3d/registration.hpp"
 #include "align3d/synth/scenes.hpp"
+#include "nanoflann_baseline.hpp"
 
 namespace align3d {
 namespace {
@@ -25,26 +29,57 @@ const synth::Scene& scene(int n) {
   return it->second;
 }
 
+// The kd-tree against the nanoflann baseline it replaced (nanoflann_baseline.hpp), on the same
+// points and queries, one thread. Queries come in spatial order, as ICP and the normals issue them.
+template <class Tree>
 void KdTreeBuild(benchmark::State& state) {
   const auto& cloud = scene(static_cast<int>(state.range(0))).model;
   for (auto _ : state) {
-    KdTree tree(cloud.positions);
-    benchmark::DoNotOptimize(tree.size());
+    Tree tree(cloud.positions);
+    benchmark::DoNotOptimize(&tree);
   }
   state.SetItemsProcessed(state.iterations() * static_cast<int64_t>(cloud.size()));
 }
 
+// The scan at its true pose against the model, as ICP's last iterations search it; argument 1 is
+// the search bound in mm (0: none; ICP bounds every search by its rejection distance or the
+// previous partner, so unbounded queries from outliers and non-overlapping parts are the worst
+// case, not the usual one).
+template <class Tree>
 void KdTreeNearest(benchmark::State& state) {
   const auto& s = scene(static_cast<int>(state.range(0)));
-  const KdTree tree(s.model.positions);
+  const double bound = static_cast<double>(state.range(1));
+  const double sq_bound = bound > 0 ? bound * bound : std::numeric_limits<double>::infinity();
+  const Tree tree(s.model.positions);
+  std::vector<Eigen::Vector3d> queries;
+  for (std::uint32_t i : spatial_order(s.scan.positions))
+    queries.push_back(s.T_model_scan * s.scan.positions[i]);
   for (auto _ : state) {
     Neighbor nb;
     double sum = 0;
-    for (const auto& p : s.scan.positions)
-      if (tree.nearest(p, nb)) sum += nb.sq_distance;
+    for (const auto& p : queries)
+      if (tree.nearest(p, nb, sq_bound)) sum += nb.sq_distance;
     benchmark::DoNotOptimize(sum);
   }
-  state.SetItemsProcessed(state.iterations() * static_cast<int64_t>(s.scan.size()));
+  state.SetItemsProcessed(state.iterations() * static_cast<int64_t>(queries.size()));
+}
+
+// Every model point's 20 nearest: the normals' search.
+template <class Tree>
+void KdTreeKnn(benchmark::State& state) {
+  const auto& cloud = scene(static_cast<int>(state.range(0))).model;
+  const Tree tree(cloud.positions);
+  const std::vector<std::uint32_t> order = spatial_order(cloud.positions);
+  std::vector<Neighbor> nb;
+  for (auto _ : state) {
+    double sum = 0;
+    for (std::uint32_t i : order) {
+      tree.knn(cloud.positions[i], 20, nb);
+      sum += nb.back().sq_distance;
+    }
+    benchmark::DoNotOptimize(sum);
+  }
+  state.SetItemsProcessed(state.iterations() * static_cast<int64_t>(cloud.size()));
 }
 
 void Normals(benchmark::State& state) {
@@ -80,8 +115,27 @@ void Registration(benchmark::State& state) {
 }
 
 // 10 million points where it fits: each cloud is ~0.5 GB with normals.
-BENCHMARK(KdTreeBuild)->RangeMultiplier(10)->Range(10000, 10000000)->Unit(benchmark::kMillisecond);
-BENCHMARK(KdTreeNearest)
+BENCHMARK_TEMPLATE(KdTreeBuild, KdTree)
+    ->RangeMultiplier(10)
+    ->Range(10000, 10000000)
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK_TEMPLATE(KdTreeBuild, bench::NanoflannTree)
+    ->RangeMultiplier(10)
+    ->Range(10000, 10000000)
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK_TEMPLATE(KdTreeNearest, KdTree)
+    ->ArgsProduct({{10000, 100000, 1000000, 10000000}, {0, 5}})
+    ->ArgNames({"n", "bound"})
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK_TEMPLATE(KdTreeNearest, bench::NanoflannTree)
+    ->ArgsProduct({{10000, 100000, 1000000, 10000000}, {0, 5}})
+    ->ArgNames({"n", "bound"})
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK_TEMPLATE(KdTreeKnn, KdTree)
+    ->RangeMultiplier(10)
+    ->Range(10000, 10000000)
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK_TEMPLATE(KdTreeKnn, bench::NanoflannTree)
     ->RangeMultiplier(10)
     ->Range(10000, 10000000)
     ->Unit(benchmark::kMillisecond);

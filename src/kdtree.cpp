@@ -1,117 +1,248 @@
 #include "align3d/kdtree.hpp"
 
 #include <Eigen/Geometry>
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
-#include <nanoflann.hpp>
+#include <limits>
 #include <stdexcept>
+#include <string>
+
+#include "align3d/parallel.hpp"
 
 namespace align3d {
-namespace {
 
-struct Adaptor {
-  const std::vector<Eigen::Vector3d>& points;
-  std::size_t kdtree_get_point_count() const { return points.size(); }
-  double kdtree_get_pt(std::size_t i, std::size_t dim) const { return points[i][dim]; }
-  template <class Box>
-  bool kdtree_get_bbox(Box&) const {
-    return false;
+// A balanced kd-tree written for this library's queries. bench/core_bench.cpp runs it against
+// the nanoflann tree it replaced on the same points (KdTreeBuild, KdTreeNearest, KdTreeKnn);
+// bench/README.md has the numbers. What it does differently:
+// - splits are at the median of the widest side of the node's bounding box (nth_element over
+//   contiguous {point, index} entries), so the depth is log2(n / 16) whatever the data and the
+//   subtrees are built as parallel tasks;
+// - the points are stored once, in leaf order, so a leaf is one contiguous run of up to 16
+//   points, scanned distances first and inserts after (the scan has no branches);
+// - nodes are 32 bytes in one array in depth-first order (the left child follows its parent);
+//   each inner node keeps the gap between its children (left child's maximum and right child's
+//   minimum along the split), which prunes the empty space between surfaces;
+// - the search is nanoflann's (Arya & Mount): the squared distance from the query to the current
+//   cell is updated one coordinate at a time, and a subtree is entered only if that lower bound
+//   beats the current worst result; results are added straight into a fixed-size sorted array.
+// Distances are summed as dx² + dy² + dz² in double, the same bits as a brute-force scan.
+struct KdTree::Impl {
+  static constexpr std::uint32_t kLeafSize = 16;
+  static constexpr std::uint32_t kLeaf = 3;  // Node::dim of a leaf
+
+  struct Node {
+    double low = 0;                    // inner: largest coordinate of the left child along dim
+    double high = 0;                   // inner: smallest coordinate of the right child along dim
+    std::uint32_t begin = 0, end = 0;  // the points under this node: [begin, end) in leaf order
+    std::uint32_t right = 0;           // inner: the right child (the left one is this + 1)
+    std::uint32_t dim = kLeaf;
+  };
+
+  std::vector<Eigen::Vector3d> points;  // in leaf order
+  std::vector<std::uint32_t> original;  // point k of the leaf order is input[original[k]]
+  std::vector<Node> nodes;
+  Eigen::AlignedBox3d box;
+
+  Impl(const std::vector<Eigen::Vector3d>& input, int threads) {
+    const auto n = static_cast<std::uint32_t>(input.size());
+    std::vector<Entry> entries(n);
+    for (std::uint32_t i = 0; i < n; ++i) {
+      entries[i] = {input[i], i};
+      box.extend(input[i]);
+    }
+    nodes.resize(n > 0 ? node_count(n) : 0);
+    if (n > 0) {
+      // Subtrees are independent (each writes its own nodes and entries), so large ones are
+      // built as parallel tasks; the tree does not depend on which thread builds what.
+#pragma omp parallel if (n > 2 * kTaskSize) num_threads(thread_count(threads))
+#pragma omp single
+      build(entries, 0, n, 0);
+    }
+    original.resize(n);
+    points.resize(n);
+    for (std::uint32_t k = 0; k < n; ++k) {
+      original[k] = entries[k].index;
+      points[k] = entries[k].p;
+    }
+  }
+
+  static constexpr std::uint32_t kTaskSize = 1 << 15;  // smallest subtree built as its own task
+
+  struct Entry {
+    Eigen::Vector3d p;
+    std::uint32_t index;
+  };
+
+  static std::uint32_t node_count(std::uint32_t n) {
+    return n <= kLeafSize ? 1 : 1 + node_count(n / 2) + node_count(n - n / 2);
+  }
+
+  // Builds the subtree over entries[begin, end) into nodes[self, self + node_count(end - begin)).
+  void build(std::vector<Entry>& entries, std::uint32_t begin, std::uint32_t end,
+             std::uint32_t self) {
+    Node& node = nodes[self];
+    node.begin = begin;
+    node.end = end;
+    if (end - begin <= kLeafSize) return;
+    Eigen::AlignedBox3d cell;
+    for (std::uint32_t k = begin; k < end; ++k) cell.extend(entries[k].p);
+    int dim = 0;
+    cell.sizes().maxCoeff(&dim);
+    const std::uint32_t mid = begin + (end - begin) / 2;
+    std::nth_element(entries.begin() + begin, entries.begin() + mid, entries.begin() + end,
+                     [dim](const Entry& a, const Entry& b) {
+                       return a.p[dim] < b.p[dim] || (a.p[dim] == b.p[dim] && a.index < b.index);
+                     });
+    node.dim = static_cast<std::uint32_t>(dim);
+    node.low = -std::numeric_limits<double>::infinity();
+    node.high = std::numeric_limits<double>::infinity();
+    for (std::uint32_t k = begin; k < mid; ++k) node.low = std::max(node.low, entries[k].p[dim]);
+    for (std::uint32_t k = mid; k < end; ++k) node.high = std::min(node.high, entries[k].p[dim]);
+    node.right = self + 1 + node_count(mid - begin);
+#pragma omp task if (mid - begin > kTaskSize) default(shared)
+    build(entries, begin, mid, self + 1);
+    build(entries, mid, end, node.right);
+#pragma omp taskwait
+  }
+
+  // Result sets: worst() is the bound a point must beat (strictly) to be added; add(sq_d, k)
+  // receives every such point with its leaf-order index.
+  template <class Result>
+  void search(const Eigen::Vector3d& q, Result& result) const {
+    if (nodes.empty()) return;
+    std::array<double, 3> offset{};  // per coordinate: squared distance from q to the cell
+    double sq_cell = 0;
+    for (int d = 0; d < 3; ++d) {
+      const double below = box.min()[d] - q[d], above = q[d] - box.max()[d];
+      const double gap = below > 0 ? below : above > 0 ? above : 0;
+      offset[d] = gap * gap;
+      sq_cell += offset[d];
+    }
+    if (sq_cell < result.worst()) descend(0, q, sq_cell, offset, result);
+  }
+
+  template <class Result>
+  void descend(std::uint32_t index, const Eigen::Vector3d& q, double sq_cell,
+               std::array<double, 3>& offset, Result& result) const {
+    const Node& node = nodes[index];
+    if (node.dim == kLeaf) {
+      scan(node.begin, node.end, q, result);
+      return;
+    }
+    const std::uint32_t d = node.dim;
+    const double to_low = q[d] - node.low, to_high = q[d] - node.high;
+    std::uint32_t near = index + 1, far = node.right;
+    double cut = to_high * to_high;
+    if (to_low + to_high >= 0) {  // nearer the right child
+      std::swap(near, far);
+      cut = to_low * to_low;
+    }
+    descend(near, q, sq_cell, offset, result);
+    const double saved = offset[d];
+    const double sq_far = sq_cell + cut - saved;
+    if (sq_far < result.worst()) {
+      offset[d] = cut;
+      descend(far, q, sq_far, offset, result);
+      offset[d] = saved;
+    }
+  }
+
+  template <class Result>
+  void scan(std::uint32_t begin, std::uint32_t end, const Eigen::Vector3d& q,
+            Result& result) const {
+    std::array<double, kLeafSize> sq_d;
+    const std::uint32_t n = end - begin;
+    const Eigen::Vector3d* p = points.data() + begin;
+    for (std::uint32_t i = 0; i < n; ++i) {
+      const double dx = q.x() - p[i].x(), dy = q.y() - p[i].y(), dz = q.z() - p[i].z();
+      sq_d[i] = dx * dx + dy * dy + dz * dz;
+    }
+    for (std::uint32_t i = 0; i < n; ++i)
+      if (sq_d[i] < result.worst()) result.add(sq_d[i], begin + i);
   }
 };
 
-using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, Adaptor>,
-                                                 Adaptor, 3, std::uint32_t>;
+namespace {
 
-// A k = 1 result set whose initial radius is the caller's bound, so the search never descends into
-// cells farther than the rejection distance.
-class BoundedNearest {
- public:
-  explicit BoundedNearest(double sq_bound) : sq_best_(sq_bound) {}
-  bool addPoint(double sq_d, std::size_t index) {
-    if (sq_d < sq_best_) {
-      sq_best_ = sq_d;
-      index_ = index;
-      found_ = true;
-    }
-    return true;
+struct NearestResult {
+  double sq_best;
+  std::uint32_t index = 0;
+  bool found = false;
+  double worst() const { return sq_best; }
+  void add(double sq_d, std::uint32_t k) {
+    sq_best = sq_d;
+    index = k;
+    found = true;
   }
-  double worstDist() const { return sq_best_; }
-  bool full() const { return found_; }
-  std::size_t index() const { return index_; }
+};
 
- private:
-  double sq_best_;
-  std::size_t index_ = 0;
-  bool found_ = false;
+// The k best so far, sorted, in caller-provided storage of k entries (insertion: k is small, and
+// after the first leaves few points beat the k-th).
+struct KnnResult {
+  Neighbor* best;
+  std::size_t k;
+  std::size_t count = 0;
+  double worst() const {
+    return count < k ? std::numeric_limits<double>::infinity() : best[k - 1].sq_distance;
+  }
+  void add(double sq_d, std::uint32_t index) {
+    std::size_t i = count < k ? count++ : k - 1;
+    for (; i > 0 && best[i - 1].sq_distance > sq_d; --i) best[i] = best[i - 1];
+    best[i] = {index, sq_d};
+  }
+};
+
+struct RadiusResult {
+  double sq_bound;
+  std::vector<Neighbor>& found;
+  double worst() const { return sq_bound; }
+  void add(double sq_d, std::uint32_t index) { found.push_back({index, sq_d}); }
 };
 
 }  // namespace
 
-// The tree owns a copy of the points stored in leaf order: after nanoflann has built its nodes over
-// the caller's order, the copy is permuted so that every leaf's points are contiguous and the
-// index list becomes the identity. A query then reads a few adjacent cache lines per leaf instead
-// of scattered points, which is most of the search time on clouds larger than the cache.
-struct KdTree::Impl {
-  explicit Impl(const std::vector<Eigen::Vector3d>& input)
-      : points(input),
-        adaptor{points},
-        tree(3, adaptor, nanoflann::KDTreeSingleIndexAdaptorParams(kLeafSize)) {
-    original.assign(tree.vAcc.begin(), tree.vAcc.end());
-    for (std::size_t k = 0; k < original.size(); ++k) {
-      points[k] = input[original[k]];
-      tree.vAcc[k] = static_cast<std::uint32_t>(k);
-    }
-  }
-  static constexpr std::size_t kLeafSize = 8;
-  std::vector<Eigen::Vector3d> points;  // in leaf order
-  std::vector<std::uint32_t> original;  // points[k] == input[original[k]]
-  Adaptor adaptor;
-  Tree tree;
-};
-
-KdTree::KdTree(const std::vector<Eigen::Vector3d>& points) : size_(points.size()) {
+KdTree::KdTree(const std::vector<Eigen::Vector3d>& points, int threads) : size_(points.size()) {
   if (points.size() >= std::numeric_limits<std::uint32_t>::max())
     throw std::length_error("KdTree: more than 2^32 - 1 points");
-  impl_ = std::make_unique<Impl>(points);
+  for (std::size_t i = 0; i < points.size(); ++i)
+    if (!points[i].allFinite())
+      throw std::invalid_argument("KdTree: point " + std::to_string(i) +
+                                  " has a NaN or infinite coordinate");
+  impl_ = std::make_unique<Impl>(points, threads);
 }
 
 KdTree::~KdTree() = default;
 
 bool KdTree::nearest(const Eigen::Vector3d& query, Neighbor& out, double sq_max_distance) const {
-  if (size_ == 0) return false;
-  BoundedNearest result(sq_max_distance);
-  impl_->tree.findNeighbors(result, query.data(), nanoflann::SearchParams());
-  if (!result.full()) return false;
-  out = {impl_->original[result.index()], result.worstDist()};
+  NearestResult result{sq_max_distance};
+  impl_->search(query, result);
+  if (!result.found) return false;
+  out = {impl_->original[result.index], result.sq_best};
   return true;
 }
 
 void KdTree::knn(const Eigen::Vector3d& query, std::size_t k, std::vector<Neighbor>& out) const {
-  k = std::min(k, size_);
-  out.clear();
-  if (k == 0) return;
-  thread_local std::vector<std::uint32_t> indices;
-  thread_local std::vector<double> sq_dists;
-  indices.resize(k);
-  sq_dists.resize(k);
-  const std::size_t found = impl_->tree.knnSearch(query.data(), k, indices.data(), sq_dists.data());
-  out.resize(found);
-  for (std::size_t i = 0; i < found; ++i) out[i] = {impl_->original[indices[i]], sq_dists[i]};
+  out.resize(std::min(k, size_));
+  if (out.empty()) return;
+  KnnResult result{out.data(), out.size()};
+  impl_->search(query, result);
+  out.resize(result.count);  // fewer only for a NaN query
+  for (auto& nb : out) nb.index = impl_->original[nb.index];
 }
 
 void KdTree::radius(const Eigen::Vector3d& query, double sq_radius,
                     std::vector<Neighbor>& out) const {
   out.clear();
-  if (size_ == 0) return;
-  thread_local std::vector<std::pair<std::uint32_t, double>> found;
-  found.clear();
-  // nanoflann keeps d < r; the contract is d <= r, so widen r by one ulp.
-  const double inclusive = std::nextafter(sq_radius, std::numeric_limits<double>::infinity());
-  impl_->tree.radiusSearch(query.data(), inclusive, found, nanoflann::SearchParams(32, 0, true));
-  out.reserve(found.size());
-  for (const auto& [index, sq_d] : found) out.push_back({impl_->original[index], sq_d});
+  // Points with d == r belong to the result: the bound to beat is one ulp above r.
+  RadiusResult result{std::nextafter(sq_radius, std::numeric_limits<double>::infinity()), out};
+  impl_->search(query, result);
+  std::sort(out.begin(), out.end(), [](const Neighbor& a, const Neighbor& b) {
+    return a.sq_distance < b.sq_distance || (a.sq_distance == b.sq_distance && a.index < b.index);
+  });
+  for (auto& nb : out) nb.index = impl_->original[nb.index];
 }
-
 namespace {
 
 // Spreads the low 10 bits of x so that bit i lands at bit 3i.

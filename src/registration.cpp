@@ -90,7 +90,7 @@ RegistrationResult register_clouds(const PointCloud& source, const PointCloud& t
   // A copy in spatial order (normals may be added): the search, the normals and the ICP sums then
   // touch memory in order. The result, a transform, does not depend on the order of the points.
   PointCloud target = reordered(target_in, spatial_order(target_in.positions));
-  const KdTree tree(target.positions);
+  const KdTree tree(target.positions, settings.threads);
   const bool need_normals =
       settings.method == IcpMethod::kPointToPlane || !settings.rejection.has_value();
   if (need_normals && !target.has_normals()) {

@@ -186,14 +186,14 @@ TEST_F(IcpScene, MedianRejectionKeepsAnIntruderWallOut) {
   }
 }
 
-TEST_F(IcpScene, HistoryHasOneRecordPerIterationWithTheRuleThreshold) {
+TEST_F(IcpScene, HistoryHasOneRecordPerEvaluatedPoseWithTheRuleThreshold) {
   const std::size_t n = scene_->scan.size();
   for (const IcpMethod method : {IcpMethod::kPointToPoint, IcpMethod::kPointToPlane}) {
     IcpSettings s = settings_for(method);
     s.rejection = RejectionRule::max_distance(15.0);  // wider than the initial misalignment
     IcpResult r = icp(scene_->scan, scene_->model, *model_tree_, Eigen::Isometry3d::Identity(), s);
     EXPECT_TRUE(r.converged) << to_string(method);
-    ASSERT_EQ(r.history.size(), static_cast<std::size_t>(r.iterations)) << to_string(method);
+    ASSERT_EQ(r.history.size(), static_cast<std::size_t>(r.iterations) + 1) << to_string(method);
     for (const auto& h : r.history) {
       EXPECT_EQ(h.threshold, 15.0);
       EXPECT_LE(h.kept, n);
@@ -203,7 +203,7 @@ TEST_F(IcpScene, HistoryHasOneRecordPerIterationWithTheRuleThreshold) {
 
     s.rejection = RejectionRule::none();
     r = icp(scene_->scan, scene_->model, *model_tree_, Eigen::Isometry3d::Identity(), s);
-    ASSERT_EQ(r.history.size(), static_cast<std::size_t>(r.iterations));
+    ASSERT_EQ(r.history.size(), static_cast<std::size_t>(r.iterations) + 1);
     for (const auto& h : r.history) {
       EXPECT_EQ(h.threshold, kInf);
       EXPECT_EQ(h.kept, n);  // nothing rejected, every query finds a neighbour
@@ -212,7 +212,7 @@ TEST_F(IcpScene, HistoryHasOneRecordPerIterationWithTheRuleThreshold) {
 
     s.rejection = RejectionRule::median(2.5, 1.0);
     r = icp(scene_->scan, scene_->model, *model_tree_, Eigen::Isometry3d::Identity(), s);
-    ASSERT_EQ(r.history.size(), static_cast<std::size_t>(r.iterations));
+    ASSERT_EQ(r.history.size(), static_cast<std::size_t>(r.iterations) + 1);
     for (const auto& h : r.history) {
       EXPECT_GE(h.threshold, 1.0);  // the floor
       EXPECT_LE(h.kept, n);
@@ -249,7 +249,7 @@ TEST_F(IcpScene, FirstIterationMatchesABruteForceNearestNeighbourPass) {
   s.rejection = RejectionRule::median(2.5);
   s.termination.max_iterations = 1;
   const IcpResult r = icp(scene_->scan, scene_->model, *model_tree_, init, s);
-  ASSERT_EQ(r.history.size(), 1u);
+  ASSERT_EQ(r.history.size(), 2u);  // the initial pose, then the pose after one update
   EXPECT_NEAR(r.history[0].threshold, threshold, 1e-12 * threshold);
   EXPECT_EQ(r.history[0].kept, kept);
   EXPECT_NEAR(r.history[0].rms, std::sqrt(sq_sum / static_cast<double>(kept)), 1e-12);
@@ -262,7 +262,7 @@ TEST_F(IcpScene, IterationCapIsNotConvergence) {
     const IcpResult r =
         icp(scene_->scan, scene_->model, *model_tree_, Eigen::Isometry3d::Identity(), s);
     EXPECT_EQ(r.iterations, 1) << to_string(method);
-    EXPECT_EQ(r.history.size(), 1u);
+    EXPECT_EQ(r.history.size(), 2u);
     EXPECT_EQ(r.stop_reason, StopReason::kMaxIterations) << to_string(r.stop_reason);
     EXPECT_FALSE(r.converged);
     // One step did move the estimate toward the truth.
@@ -274,7 +274,8 @@ TEST_F(IcpScene, IterationCapIsNotConvergence) {
   const IcpResult r =
       icp(scene_->scan, scene_->model, *model_tree_, Eigen::Isometry3d::Identity(), s);
   EXPECT_EQ(r.iterations, 0);
-  EXPECT_TRUE(r.history.empty());
+  ASSERT_EQ(r.history.size(), 1u);  // the initial pose is still evaluated
+  EXPECT_EQ(r.rms, r.history[0].rms);
   EXPECT_EQ(r.stop_reason, StopReason::kMaxIterations);
   EXPECT_FALSE(r.converged);
   EXPECT_TRUE(r.T_target_source.isApprox(Eigen::Isometry3d::Identity()));

@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <limits>
 #include <set>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -249,6 +250,52 @@ TEST(KdTree, ConcurrentQueriesGiveTheSameAnswers) {
       EXPECT_EQ(serial[i][j].sq_distance, parallel[i][j].sq_distance);
     }
   }
+}
+
+TEST(KdTree, ParallelBuildGivesTheSameTreeAsSerial) {
+  // Above 65 536 points the subtrees are built as OpenMP tasks; the tree, and so every answer,
+  // must not depend on the thread count, and must still be exact.
+  Random rng(109);
+  const std::vector<Eigen::Vector3d> points = random_points(150000, rng);
+  const KdTree serial(points, 1), parallel(points, 2);
+  std::vector<Neighbor> a, b;
+  for (int q = 0; q < 40; ++q) {
+    const Eigen::Vector3d query(rng.uniform(-1.2, 1.2), rng.uniform(-1.2, 1.2),
+                                rng.uniform(-1.2, 1.2));
+    serial.knn(query, 12, a);
+    parallel.knn(query, 12, b);
+    ASSERT_EQ(a.size(), 12u);
+    ASSERT_EQ(b.size(), 12u);
+    std::vector<double> brute;
+    for (const auto& p : points) brute.push_back(sq_dist(query, p));
+    std::partial_sort(brute.begin(), brute.begin() + 12, brute.end());
+    for (std::size_t j = 0; j < 12; ++j) {
+      EXPECT_EQ(a[j].index, b[j].index);
+      EXPECT_EQ(a[j].sq_distance, brute[j]);
+      EXPECT_EQ(b[j].sq_distance, brute[j]);
+    }
+  }
+}
+
+TEST(KdTree, NanQueriesFindNothing) {
+  Random rng(110);
+  const KdTree tree(random_points(100, rng));
+  const Eigen::Vector3d nan_query(0, std::numeric_limits<double>::quiet_NaN(), 0);
+  Neighbor nb;
+  EXPECT_FALSE(tree.nearest(nan_query, nb));
+  std::vector<Neighbor> found(3);
+  tree.knn(nan_query, 5, found);
+  EXPECT_TRUE(found.empty());
+  tree.radius(nan_query, 1.0, found);
+  EXPECT_TRUE(found.empty());
+}
+
+TEST(KdTree, RejectsNonFinitePoints) {
+  std::vector<Eigen::Vector3d> points(10, Eigen::Vector3d(1, 2, 3));
+  points[7].y() = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(KdTree{points}, std::invalid_argument);
+  points[7].y() = kInf;
+  EXPECT_THROW(KdTree{points}, std::invalid_argument);
 }
 
 TEST(KdTree, KeepsItsOwnCopyOfThePoints) {

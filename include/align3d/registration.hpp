@@ -45,7 +45,9 @@ struct RegistrationSettings {
 struct StageRecord {
   std::string metric;       // "point-to-point" or "point-to-plane"
   double max_distance = 0;  // τ of the stage (infinity for none, per-iteration for median)
-  int first_iteration = 0;  // index into the combined history
+  int first_iteration = 0;  // index into the combined history of the stage's first evaluation
+                            // (a stage has iterations + 1 records: its start pose, then one per
+                            // update)
   int iterations = 0;
 };
 

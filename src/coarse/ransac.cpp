@@ -72,7 +72,7 @@ struct Prepared {
 // isolated outlier as one point while it thins the surfaces, so outliers gain weight; inside a
 // descriptor's radius they carry random normals into every histogram around them.
 PointCloud drop_isolated(const PointCloud& down, double voxel, int threads) {
-  const KdTree tree(down.positions);
+  const KdTree tree(down.positions, threads);
   const double radius = kSupportRadius * std::max(voxel, point_spacing(down, tree));
   std::vector<unsigned char> keep(down.size());
   parallel_for(down.size(), threads, [&](std::size_t i) {
@@ -95,7 +95,7 @@ Prepared prepare(const PointCloud& cloud, double voxel, const char* what, int th
                     " points after downsampling to voxel " + std::to_string(voxel) +
                     " and dropping isolated points" + "; FPFH registration needs at least 10");
   check_registrable(out.down, std::string(what) + " (downsampled)");
-  out.tree = std::make_unique<KdTree>(out.down.positions);
+  out.tree = std::make_unique<KdTree>(out.down.positions, threads);
   NormalSettings ns;
   ns.k = kNormalNeighbours;
   ns.threads = threads;

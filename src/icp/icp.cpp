@@ -173,6 +173,34 @@ Step solve_step(const std::vector<Eigen::Vector3d>& source, const PointCloud& ta
   return step;
 }
 
+// The convergence criteria (termination.hpp), checked on the pass just evaluated (the last entry of
+// `history`, whose update is `delta`); true, with the reason, when the loop should stop there.
+bool stop_before_update(const std::vector<IterationRecord>& history, double previous_rms,
+                        const Eigen::Isometry3d& delta, double diagonal,
+                        const TerminationSettings& term, StopReason& reason) {
+  const IterationRecord& now = history.back();
+  // A state seen in the last 4 passes again: the loop is periodic.
+  const std::size_t seen = history.size() - 1;
+  for (std::size_t back = 2; back <= 4 && back <= seen; ++back) {
+    const IterationRecord& then = history[seen - back];
+    if (then.kept == now.kept && std::abs(then.rms - now.rms) <= 1e-12 * now.rms) {
+      reason = StopReason::kCycle;
+      return true;
+    }
+  }
+  const double rms_tolerance = term.rms_change * (term.rms_change_relative ? previous_rms : 1.0);
+  if (std::abs(now.rms - previous_rms) < rms_tolerance) {
+    reason = StopReason::kRmsChange;
+    return true;
+  }
+  if (term.rotation > 0 && rotation_angle(delta.linear()) < term.rotation &&
+      delta.translation().norm() < term.translation * diagonal) {
+    reason = StopReason::kTransformChange;
+    return true;
+  }
+  return false;
+}
+
 }  // namespace
 
 IcpResult icp(const PointCloud& source, const PointCloud& target, const KdTree& tree,
@@ -196,70 +224,43 @@ IcpResult icp(const PointCloud& source, const PointCloud& target, const KdTree& 
     for (std::size_t k = 0; k < moving.size(); ++k) moving[k] = source.positions[order[k]];
   }
 
+  // Each pass evaluates the pose reached so far and, unless a criterion stops the loop there,
+  // applies the update it solved for. The pose returned is the last one evaluated, so its RMS,
+  // pairs and system are exact without a separate final pass: n updates cost n + 1 searches.
   IcpResult result;
   result.T_target_source = init;
   Correspondences c;
-  double threshold = 0;
   double previous_rms = std::numeric_limits<double>::quiet_NaN();
-  bool stopped = false;
-  for (int it = 0; it < term.max_iterations; ++it) {
+  for (;;) {
     find_correspondences(moving, target, tree, result.T_target_source, s.rejection.search_bound(),
                          s.threads, c);
-    threshold = threshold_for(s.rejection, c);
-    const Step step = solve_step(moving, target, c, result.T_target_source, centre, threshold, s);
+    const double threshold = threshold_for(s.rejection, c);
+    Step step = solve_step(moving, target, c, result.T_target_source, centre, threshold, s);
     result.history.push_back({step.rms, step.kept, threshold});
+    result.rms = step.rms;
+    result.correspondences = step.kept;
+    result.hessian = step.hessian;
+    result.degenerate_directions = std::move(step.weak);
     if (!step.solvable || step.kept < min_pairs) {
       result.stop_reason = StopReason::kTooFewCorrespondences;
-      stopped = true;
       break;
     }
-    result.hessian = step.hessian;
+    if (stop_before_update(result.history, previous_rms, step.delta, diagonal, term,
+                           result.stop_reason))
+      break;
+    if (result.iterations == term.max_iterations) {
+      result.stop_reason = StopReason::kMaxIterations;
+      break;
+    }
     result.T_target_source = to_world * step.delta * to_world.inverse() * result.T_target_source;
     result.T_target_source.linear() = nearest_rotation(result.T_target_source.linear());
     ++result.iterations;
-
-    // A state seen in the last 4 iterations again: the loop is periodic (termination.hpp).
-    bool cycle = false;
-    const std::size_t seen = result.history.size() - 1;
-    for (std::size_t back = 2; back <= 4 && back <= seen && !cycle; ++back) {
-      const IterationRecord& then = result.history[seen - back];
-      cycle = then.kept == step.kept && std::abs(then.rms - step.rms) <= 1e-12 * step.rms;
-    }
-    if (cycle) {
-      result.stop_reason = StopReason::kCycle;
-      stopped = true;
-      break;
-    }
-    const double rms_tolerance = term.rms_change * (term.rms_change_relative ? previous_rms : 1.0);
-    if (std::abs(step.rms - previous_rms) < rms_tolerance) {
-      result.stop_reason = StopReason::kRmsChange;
-      stopped = true;
-      break;
-    }
-    if (term.rotation > 0 && rotation_angle(step.delta.linear()) < term.rotation &&
-        step.delta.translation().norm() < term.translation * diagonal) {
-      result.stop_reason = StopReason::kTransformChange;
-      stopped = true;
-      break;
-    }
     previous_rms = step.rms;
   }
-  if (!stopped) result.stop_reason = StopReason::kMaxIterations;
-
-  // Final evaluation at the returned pose.
-  find_correspondences(moving, target, tree, result.T_target_source, s.rejection.search_bound(),
-                       s.threads, c);
-  if (result.stop_reason != StopReason::kTooFewCorrespondences)
-    threshold = threshold_for(s.rejection, c);
-  const Step final_step =
-      solve_step(moving, target, c, result.T_target_source, centre, threshold, s);
-  result.rms = final_step.rms;
-  result.degenerate_directions = final_step.weak;
-  result.correspondences = final_step.kept;
-  result.fitness = source.empty()
-                       ? 0.0
-                       : static_cast<double>(final_step.kept) / static_cast<double>(source.size());
-  result.converged = is_convergence(result.stop_reason) && final_step.kept >= min_pairs;
+  result.fitness = source.empty() ? 0.0
+                                  : static_cast<double>(result.correspondences) /
+                                        static_cast<double>(source.size());
+  result.converged = is_convergence(result.stop_reason);
   return result;
 }
 

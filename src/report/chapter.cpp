@@ -112,7 +112,7 @@ Figure side_view(std::string title, const std::vector<Series>& series) {
 std::vector<Eigen::Vector2d> rms_curve(const IcpExperiment& e) {
   std::vector<Eigen::Vector2d> out;
   for (std::size_t i = 0; i < e.result.history.size(); ++i)
-    out.emplace_back(static_cast<double>(i + 1), std::max(e.result.history[i].rms, 1e-6));
+    out.emplace_back(static_cast<double>(i), std::max(e.result.history[i].rms, 1e-6));
   return out;
 }
 

@@ -32,9 +32,10 @@ struct IcpSettings {
   int threads = 0;  // 0: all cores; the result does not depend on it
 };
 
+// One evaluation of a pose: the initial one, then one after each update.
 struct IterationRecord {
-  double rms = 0;  // RMS residual of the kept pairs at the start of the iteration: Euclidean
-                   // distance (point-to-point) or distance to the target plane (point-to-plane)
+  double rms = 0;        // RMS residual of the kept pairs at that pose: Euclidean distance
+                         // (point-to-point) or distance to the target plane (point-to-plane)
   std::size_t kept = 0;  // pairs that passed rejection
   double threshold = 0;  // rejection threshold used (data units; infinity for "none")
 };
@@ -44,13 +45,14 @@ struct IcpResult {
   int iterations = 0;      // updates applied
   bool converged = false;  // a convergence criterion fired with enough pairs (never merely the cap)
   StopReason stop_reason = StopReason::kMaxIterations;
-  // Evaluated once more at the final pose, with the last iteration's threshold:
+  // At the returned pose (the last evaluation, history.back()):
   double rms = 0;  // RMS of the kept pairs' residuals (metric as in IterationRecord)
-  std::size_t correspondences = 0;  // kept pairs
-  double fitness = 0;               // kept pairs ÷ source points (Open3D's meaning)
-  std::vector<IterationRecord> history;
-  // The last point-to-plane system (H of Σ w r², in the frame centred on the target centroid,
-  // unknowns ω then v) for judging which directions the data constrains; zero for point-to-point.
+  std::size_t correspondences = 0;       // kept pairs
+  double fitness = 0;                    // kept pairs ÷ source points (Open3D's meaning)
+  std::vector<IterationRecord> history;  // iterations + 1 evaluations, the last at the result
+  // The point-to-plane system at the returned pose (H of Σ w r², in the frame centred on the target
+  // centroid, unknowns ω then v) for judging which directions the data constrains; zero for
+  // point-to-point.
   Matrix6d hessian = Matrix6d::Zero();
   // Directions of that system the data leaves (nearly) free, weakest first (icp/degeneracy.hpp):
   // every point-to-plane update is solved without moving along them. Empty when all six are
