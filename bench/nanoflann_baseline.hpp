@@ -15,7 +15,8 @@ namespace align3d::bench {
 
 class NanoflannTree {
  public:
-  explicit NanoflannTree(const std::vector<Eigen::Vector3d>& input)
+  // `threads` is accepted for the same signature as KdTree's; nanoflann builds on one thread.
+  explicit NanoflannTree(const std::vector<Eigen::Vector3d>& input, int /*threads*/ = 1)
       : points_(input), tree_(3, adaptor_, nanoflann::KDTreeSingleIndexAdaptorParams(8)) {
     original_.assign(tree_.vAcc.begin(), tree_.vAcc.end());
     for (std::size_t k = 0; k < original_.size(); ++k) {
