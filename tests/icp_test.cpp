@@ -279,6 +279,11 @@ TEST_F(IcpScene, IterationCapIsNotConvergence) {
   EXPECT_EQ(r.stop_reason, StopReason::kMaxIterations);
   EXPECT_FALSE(r.converged);
   EXPECT_TRUE(r.T_target_source.isApprox(Eigen::Isometry3d::Identity()));
+  s.termination.max_iterations = -3;  // a negative cap is a cap of 0, not "no cap"
+  const IcpResult negative =
+      icp(scene_->scan, scene_->model, *model_tree_, Eigen::Isometry3d::Identity(), s);
+  EXPECT_EQ(negative.iterations, 0);
+  EXPECT_EQ(negative.history.size(), 1u);
 }
 
 TEST_F(IcpScene, TooFewCorrespondencesStopsWithoutConverging) {

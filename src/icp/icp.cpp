@@ -248,7 +248,7 @@ IcpResult icp(const PointCloud& source, const PointCloud& target, const KdTree& 
     if (stop_before_update(result.history, previous_rms, step.delta, diagonal, term,
                            result.stop_reason))
       break;
-    if (result.iterations == term.max_iterations) {
+    if (result.iterations >= term.max_iterations) {
       result.stop_reason = StopReason::kMaxIterations;
       break;
     }
