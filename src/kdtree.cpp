@@ -270,6 +270,7 @@ void KdTree::radius(const Eigen::Vector3d& query, double sq_radius,
   });
   for (auto& nb : out) nb.index = impl_->original[nb.index];
 }
+
 namespace {
 
 // Spreads the low 10 bits of x so that bit i lands at bit 3i.
