@@ -12,10 +12,12 @@ NormalResult estimate_normals(PointCloud& cloud, const KdTree& tree,
   if (settings.k < 3) throw std::invalid_argument("estimate_normals: k must be >= 3");
   const std::size_t n = cloud.size();
   const auto k = static_cast<std::size_t>(settings.k);
-  // Points are visited in spatial order so consecutive searches share cached tree nodes; results
-  // are written in that order too (each thread to its own stretch, no shared cache lines) and put
-  // back in place afterwards.
-  const std::vector<std::uint32_t> order = spatial_order(cloud.positions);
+  // Points are visited in the tree's leaf order so consecutive searches share cached tree nodes;
+  // results are written in that order too (each thread to its own stretch, no shared cache lines)
+  // and put back in place afterwards.
+  if (tree.size() != n)
+    throw std::invalid_argument("estimate_normals: the kd-tree does not index the cloud");
+  const std::vector<std::uint32_t>& order = tree.leaf_order();
   std::vector<Eigen::Vector3d> by_rank(n);
   std::vector<unsigned char> undefined(n, 0);
   parallel_for(n, settings.threads, [&](std::size_t rank) {

@@ -47,6 +47,10 @@ class KdTree {
   // All points with squared distance <= sq_radius, closest first, written into `out`.
   void radius(const Eigen::Vector3d& query, double sq_radius, std::vector<Neighbor>& out) const;
 
+  // The input indices in the tree's leaf order: visiting the tree's own points in this order keeps
+  // consecutive queries in the same or neighbouring leaves (what the normals do).
+  const std::vector<std::uint32_t>& leaf_order() const;
+
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;

@@ -26,7 +26,8 @@ struct NormalResult {
   std::size_t undefined = 0;  // neighbourhoods with no plane (coincident or collinear points)
 };
 
-// Sets cloud.normals. `tree` must index cloud.positions. k is clamped to the cloud size.
+// Sets cloud.normals. `tree` must index cloud.positions (std::invalid_argument when its size
+// differs). k is clamped to the cloud size.
 NormalResult estimate_normals(PointCloud& cloud, const KdTree& tree,
                               const NormalSettings& settings = {});
 NormalResult estimate_normals(PointCloud& cloud, const NormalSettings& settings = {});
