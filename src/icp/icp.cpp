@@ -52,6 +52,7 @@ void find_correspondences(const std::vector<Eigen::Vector3d>& source, const Poin
 double threshold_for(const RejectionRule& rule, const Correspondences& c) {
   thread_local std::vector<double> found;
   found.clear();
+  if (rule.kind != RejectionRule::Kind::kMedian) return rejection_threshold(rule, found);
   for (double d : c.distance)
     if (std::isfinite(d)) found.push_back(d);
   return rejection_threshold(rule, found);
