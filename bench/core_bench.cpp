@@ -1,6 +1,7 @@
 // Micro-benchmarks of the ICP roles, in points per second, on work-cell scenes of growing size.
 // Run: cmake -DALIGN3D_BUILD_BENCH=ON ... && build/bench/align3d_bench
-// These measure align3d alone; speed claims against peers need the side-by-side comparison.
+// These measure align3d alone (the kd-tree rows also its nanoflann baseline); speed claims against
+// Open3D and PCL need the side-by-side comparison (bench/compare.py).
 #include <benchmark/benchmark.h>
 
 #include <cstdint>
