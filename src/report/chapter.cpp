@@ -316,7 +316,7 @@ void write_chapter_report(const ChapterScene& scene, const ChapterResults& r,
                                  false, 1.2, 0.6}})});
   Figure curves;
   curves.title = "Fig. 39.3  RMS per iteration";
-  curves.x_label = "iteration";
+  curves.x_label = "iteration (0: the starting pose)";
   curves.y_label = "RMS of kept pairs (mm)";
   curves.log_y = true;
   curves.series = {
