@@ -6,54 +6,65 @@
 #include "align3d/parallel.hpp"
 
 namespace align3d {
+namespace {
+
+void check(const PointCloud& cloud, const KdTree& tree, const NormalSettings& settings) {
+  if (settings.k < 3) throw std::invalid_argument("estimate_normals: k must be >= 3");
+  if (tree.size() != cloud.size())
+    throw std::invalid_argument("estimate_normals: the kd-tree does not index the cloud");
+}
+
+// The normal at point `index` (PCA of its k nearest neighbours); false when the neighbourhood has
+// no plane, and `normal` is then the orientation direction. `nb` is scratch space.
+bool normal_at(const PointCloud& cloud, const KdTree& tree, std::size_t index,
+               const NormalSettings& settings, std::vector<Neighbor>& nb, Eigen::Vector3d& normal) {
+  const Eigen::Vector3d& p = cloud.positions[index];
+  tree.knn(p, static_cast<std::size_t>(settings.k), nb);
+  // One pass over the neighbours, about p (they are within a few spacings of it, so the second
+  // moments lose no precision to the cloud's offset from the origin).
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d second = Eigen::Matrix3d::Zero();
+  for (const auto& m : nb) {
+    const Eigen::Vector3d d = cloud.positions[m.index] - p;
+    sum += d;
+    second.noalias() += d * d.transpose();
+  }
+  const double count = static_cast<double>(nb.size());
+  const Eigen::Vector3d mean = sum / count;
+  const Eigen::Matrix3d cov = second / count - mean * mean.transpose();
+  // Closed form for 3×3 (as Open3D's and PCL's normals); eigenvalues ascending.
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig;
+  eig.computeDirect(cov);
+  const Eigen::Vector3d ev = eig.eigenvalues();
+  const Eigen::Vector3d toward =
+      settings.viewpoint ? Eigen::Vector3d(*settings.viewpoint - p) : Eigen::Vector3d::UnitZ();
+  // No plane when the middle eigenvalue vanishes relative to the largest (a line or a point:
+  // neighbourhoods ~3000 times longer than wide). The closed form resolves a double eigenvalue
+  // only to ~sqrt(ε), hence 1e-7 rather than a bound near ε.
+  if (nb.size() < 3 || !(ev(1) > 1e-7 * ev(2)) || eig.info() != Eigen::Success) {
+    normal = toward.norm() > 0 ? Eigen::Vector3d(toward.normalized()) : Eigen::Vector3d::UnitZ();
+    return false;
+  }
+  normal = eig.eigenvectors().col(0);
+  if (normal.dot(toward) < 0) normal = -normal;
+  return true;
+}
+
+}  // namespace
 
 NormalResult estimate_normals(PointCloud& cloud, const KdTree& tree,
                               const NormalSettings& settings) {
-  if (settings.k < 3) throw std::invalid_argument("estimate_normals: k must be >= 3");
+  check(cloud, tree, settings);
   const std::size_t n = cloud.size();
-  const auto k = static_cast<std::size_t>(settings.k);
   // Points are visited in the tree's leaf order so consecutive searches share cached tree nodes;
   // results are written in that order too (each thread to its own stretch, no shared cache lines)
   // and put back in place afterwards.
-  if (tree.size() != n)
-    throw std::invalid_argument("estimate_normals: the kd-tree does not index the cloud");
   const std::vector<std::uint32_t>& order = tree.leaf_order();
   std::vector<Eigen::Vector3d> by_rank(n);
   std::vector<unsigned char> undefined(n, 0);
   parallel_for(n, settings.threads, [&](std::size_t rank) {
     thread_local std::vector<Neighbor> nb;
-    const Eigen::Vector3d& p = cloud.positions[order[rank]];
-    tree.knn(p, k, nb);
-    // One pass over the neighbours, about p (they are within a few spacings of it, so the
-    // second moments lose no precision to the cloud's offset from the origin).
-    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-    Eigen::Matrix3d second = Eigen::Matrix3d::Zero();
-    for (const auto& m : nb) {
-      const Eigen::Vector3d d = cloud.positions[m.index] - p;
-      sum += d;
-      second.noalias() += d * d.transpose();
-    }
-    const double count = static_cast<double>(nb.size());
-    const Eigen::Vector3d mean = sum / count;
-    const Eigen::Matrix3d cov = second / count - mean * mean.transpose();
-    // Closed form for 3×3 (as Open3D's and PCL's normals); eigenvalues ascending.
-    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig;
-    eig.computeDirect(cov);
-    const Eigen::Vector3d ev = eig.eigenvalues();
-    Eigen::Vector3d toward =
-        settings.viewpoint ? Eigen::Vector3d(*settings.viewpoint - p) : Eigen::Vector3d::UnitZ();
-    // No plane when the middle eigenvalue vanishes relative to the largest (a line or a point:
-    // neighbourhoods ~3000 times longer than wide). The closed form resolves a double eigenvalue
-    // only to ~sqrt(ε), hence 1e-7 rather than a bound near ε.
-    if (nb.size() < 3 || !(ev(1) > 1e-7 * ev(2)) || eig.info() != Eigen::Success) {
-      undefined[rank] = 1;
-      by_rank[rank] =
-          toward.norm() > 0 ? Eigen::Vector3d(toward.normalized()) : Eigen::Vector3d::UnitZ();
-      return;
-    }
-    Eigen::Vector3d normal = eig.eigenvectors().col(0);
-    if (normal.dot(toward) < 0) normal = -normal;
-    by_rank[rank] = normal;
+    undefined[rank] = !normal_at(cloud, tree, order[rank], settings, nb, by_rank[rank]);
   });
   cloud.normals.resize(n);
   NormalResult result;
@@ -67,6 +78,32 @@ NormalResult estimate_normals(PointCloud& cloud, const KdTree& tree,
 NormalResult estimate_normals(PointCloud& cloud, const NormalSettings& settings) {
   const KdTree tree(cloud.positions, settings.threads);
   return estimate_normals(cloud, tree, settings);
+}
+
+NormalCache::NormalCache(const PointCloud& cloud, const KdTree& tree,
+                         const NormalSettings& settings)
+    : cloud_(cloud), tree_(tree), settings_(settings) {
+  check(cloud, tree, settings);
+  normals_.resize(cloud.size());
+  state_.assign(cloud.size(), kUnknown);
+}
+
+void NormalCache::require(const std::vector<std::uint32_t>& indices) {
+  std::vector<std::uint32_t> pending;
+  for (std::uint32_t i : indices) {
+    if (i >= state_.size()) throw std::out_of_range("NormalCache: point index out of range");
+    if (state_[i] != kUnknown) continue;
+    state_[i] = kDefined;  // settled below
+    pending.push_back(i);
+  }
+  // Each item writes only its own point's normal and state.
+  parallel_for(pending.size(), settings_.threads, [&](std::size_t k) {
+    thread_local std::vector<Neighbor> nb;
+    const std::uint32_t i = pending[k];
+    if (!normal_at(cloud_, tree_, i, settings_, nb, normals_[i])) state_[i] = kUndefined;
+  });
+  estimated_ += pending.size();
+  for (std::uint32_t i : pending) undefined_ += state_[i] == kUndefined;
 }
 
 }  // namespace align3d

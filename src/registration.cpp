@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 
 #include "align3d/error.hpp"
 
@@ -93,6 +94,8 @@ RegistrationResult register_clouds(const PointCloud& source, const PointCloud& t
   const KdTree tree(target.positions, settings.threads);
   const bool need_normals =
       settings.method == IcpMethod::kPointToPlane || !settings.rejection.has_value();
+  // Missing target normals are estimated only where pairs need them (NormalCache, normals.hpp).
+  std::optional<NormalCache> normals;
   if (need_normals && !target.has_normals()) {
     if (target.size() < static_cast<std::size_t>(settings.normals.k))
       throw DataError(
@@ -100,8 +103,16 @@ RegistrationResult register_clouds(const PointCloud& source, const PointCloud& t
           "at least the normal neighbourhood k = " + std::to_string(settings.normals.k));
     NormalSettings ns = settings.normals;
     ns.threads = settings.threads;
-    out.undefined_normals = estimate_normals(target, tree, ns).undefined;
+    normals.emplace(target, tree, ns);
   }
+  auto run = [&](const PointCloud& from, const Eigen::Isometry3d& T, const IcpSettings& s) {
+    IcpResult r = normals ? icp(from, *normals, T, s) : icp(from, target, tree, T, s);
+    if (normals) {
+      out.estimated_normals = normals->estimated();
+      out.undefined_normals = normals->undefined();
+    }
+    return r;
+  };
 
   IcpSettings last;
   last.method = settings.method;
@@ -113,7 +124,7 @@ RegistrationResult register_clouds(const PointCloud& source, const PointCloud& t
 
   if (settings.rejection) {
     last.rejection = *settings.rejection;
-    out.icp = icp(source, target, tree, init, last);
+    out.icp = run(source, init, last);
     append(out, out.icp, last);
     return out;
   }
@@ -147,7 +158,7 @@ RegistrationResult register_clouds(const PointCloud& source, const PointCloud& t
   for (int stage = 0; stage < kMaxStages && tau > floor; ++stage, tau *= kShrink) {
     coarse.rejection = RejectionRule::max_distance(tau);
     coarse.robust_scale = kKernelFraction * tau;
-    const IcpResult r = icp(coarse_source, target, tree, T, coarse);
+    const IcpResult r = run(coarse_source, T, coarse);
     append(out, r, coarse);
     if (r.stop_reason == StopReason::kTooFewCorrespondences) break;
     T = r.T_target_source;
@@ -156,7 +167,7 @@ RegistrationResult register_clouds(const PointCloud& source, const PointCloud& t
   tau = std::max(floor, kFinalSigmas * sigma);
   last.rejection = RejectionRule::max_distance(tau);
   last.robust_scale = kKernelFraction * tau;
-  out.icp = icp(source, target, tree, T, last);
+  out.icp = run(source, T, last);
   append(out, out.icp, last);
   return out;
 }

@@ -80,6 +80,10 @@ TEST_F(Cli, RegisterWritesTheReportAndTheAlignedCloud) {
   }
   EXPECT_NEAR(j["fitness"].get<double>(), j["correspondences"].get<double>() / 6497.0, 1e-12);
   EXPECT_GT(j["timing_ms"]["total"].get<double>(), 0.0);
+  // The model file has no normals: only those of the target points the pairs used are estimated.
+  EXPECT_GT(j["normals"]["estimated"].get<std::size_t>(), 2000u);
+  EXPECT_LT(j["normals"]["estimated"].get<std::size_t>(), 5678u);
+  EXPECT_EQ(j["normals"]["undefined"].get<std::size_t>(), 0u);
 
   // The aligned cloud is the scan moved by the reported T (float32 storage: 1e-4 mm at 200 mm).
   Eigen::Matrix4d M;

@@ -1,6 +1,6 @@
 // PCA normals. Oracles: the analytic normal of the sampled surface (plane, sphere, cylinder), the
 // documented sign conventions, a neighbourhood that is a line, and bitwise equality across thread
-// counts.
+// counts; for NormalCache, the normals estimate_normals gives.
 #include "align3d/normals.hpp"
 
 #include <gtest/gtest.h>
@@ -8,6 +8,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <numbers>
 #include <stdexcept>
 #include <vector>
@@ -247,6 +248,44 @@ TEST(Normals, SameBitsWithOneAndTwoThreads) {
   for (std::size_t i = 0; i < one.normals.size(); ++i)
     differing += !(one.normals[i].array() == two.normals[i].array()).all();
   EXPECT_EQ(differing, 0u);
+}
+
+TEST(NormalCache, EstimatesOnlyWhatIsRequiredWithTheSameBits) {
+  // Oracle: estimate_normals on the whole cloud. The cache estimates exactly the required points
+  // (repeats counted once), each to the same bits, and counts the undefined ones among them.
+  Random rng(408);
+  PointCloud cloud = sample_plane(Eigen::Vector3d::Zero(), kTilted, 500, 0.01, rng);
+  const Eigen::Vector3d dir = Eigen::Vector3d(1, 2, 3).normalized();
+  for (int i = 0; i < 40; ++i)  // a line: no normal with k = 10
+    cloud.positions.push_back(Eigen::Vector3d(50, 50, 50) + 0.1 * i * dir);
+  NormalSettings settings;
+  settings.k = 10;
+  PointCloud whole = cloud;
+  estimate_normals(whole, settings);
+
+  const KdTree tree(cloud.positions);
+  NormalCache cache(cloud, tree, settings);
+  EXPECT_EQ(cache.estimated(), 0u);
+  const std::vector<std::uint32_t> first = {7, 3, 7, 510, 499, 3};
+  cache.require(first);
+  EXPECT_EQ(cache.estimated(), 4u);
+  EXPECT_EQ(cache.undefined(), 1u);  // 510 is on the line
+  cache.require({3, 520, 2});
+  EXPECT_EQ(cache.estimated(), 6u);
+  EXPECT_EQ(cache.undefined(), 2u);
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    const bool wanted = i == 2 || i == 3 || i == 7 || i == 499 || i == 510 || i == 520;
+    EXPECT_EQ(cache.known(i), wanted) << i;
+    if (wanted) {
+      EXPECT_TRUE((cache.normals()[i].array() == whole.normals[i].array()).all()) << i;
+    }
+  }
+  EXPECT_TRUE(cloud.normals.empty()) << "the cloud itself is not changed";
+  EXPECT_THROW(cache.require({540}), std::out_of_range);
+  settings.k = 2;
+  EXPECT_THROW(NormalCache(cloud, tree, settings), std::invalid_argument);
+  const KdTree other(std::vector<Eigen::Vector3d>(10, Eigen::Vector3d::Zero()));
+  EXPECT_THROW(NormalCache(cloud, other, NormalSettings{}), std::invalid_argument);
 }
 
 }  // namespace

@@ -103,6 +103,28 @@ TEST(Registration, SameResultWithOneOrTwoThreads) {
   EXPECT_EQ(a.total_iterations, b.total_iterations);
 }
 
+// Target normals are estimated only where pairs need them; the pose is that of a run on a target
+// whose normals were all estimated beforehand (used as given), to rounding.
+TEST(Registration, EstimatesOnlyTheTargetNormalsItUses) {
+  synth::ObjectSettings s;
+  s.shape = "bracket";
+  const synth::Scene scene = synth::make_object_scene(s);
+  PointCloud with_normals = scene.model;
+  estimate_normals(with_normals, NormalSettings{});
+  for (const bool automatic : {true, false}) {
+    RegistrationSettings settings;
+    if (!automatic) settings.rejection = RejectionRule::max_distance(2.0);
+    const RegistrationResult lazy = register_clouds(scene.scan, scene.model, kIdentity, settings);
+    const RegistrationResult given = register_clouds(scene.scan, with_normals, kIdentity, settings);
+    EXPECT_GT(lazy.estimated_normals, scene.model.size() / 4);
+    EXPECT_LT(lazy.estimated_normals, scene.model.size());
+    EXPECT_EQ(lazy.undefined_normals, 0u);
+    EXPECT_EQ(given.estimated_normals, 0u);
+    EXPECT_EQ(lazy.total_iterations, given.total_iterations);
+    EXPECT_TRUE(lazy.icp.T_target_source.isApprox(given.icp.T_target_source, 1e-12));
+  }
+}
+
 TEST(Registration, RejectsCloudsThatCannotBeRegistered) {
   const synth::Scene scene = synth::make_conveyor_scene();
   PointCloud few;

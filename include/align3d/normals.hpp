@@ -9,7 +9,9 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <cstdint>
 #include <optional>
+#include <vector>
 
 #include "align3d/kdtree.hpp"
 #include "align3d/point_cloud.hpp"
@@ -31,5 +33,39 @@ struct NormalResult {
 NormalResult estimate_normals(PointCloud& cloud, const KdTree& tree,
                               const NormalSettings& settings = {});
 NormalResult estimate_normals(PointCloud& cloud, const NormalSettings& settings = {});
+
+// Normals estimated only where they are used. Point-to-plane ICP needs a target normal only at the
+// target points that receive a partner, often a fraction of the target (a partial scan of a larger
+// model: half of the generated parts scenes, three quarters of the chapter's model), so
+// register_clouds estimates them through this cache. Each normal has the bits estimate_normals
+// gives it, so the registration is the same as with every normal estimated first.
+// Lifetime: keeps references to `cloud` and `tree` (which must index cloud.positions), which must
+// outlive the cache unchanged. Thread-safety: require() runs in parallel itself and must not be
+// called concurrently; the const accessors may be read from any thread between calls.
+class NormalCache {
+ public:
+  NormalCache(const PointCloud& cloud, const KdTree& tree, const NormalSettings& settings = {});
+
+  // Estimates the normals of the points `indices` (repeats allowed) not estimated yet;
+  // std::out_of_range for an index >= cloud.size().
+  void require(const std::vector<std::uint32_t>& indices);
+
+  bool known(std::size_t i) const { return state_[i] != kUnknown; }
+  // One per point of the cloud; meaningful where known().
+  const std::vector<Eigen::Vector3d>& normals() const { return normals_; }
+  const PointCloud& cloud() const { return cloud_; }
+  const KdTree& tree() const { return tree_; }
+  std::size_t estimated() const { return estimated_; }  // points whose normal has been estimated
+  std::size_t undefined() const { return undefined_; }  // of those, neighbourhoods with no plane
+
+ private:
+  enum State : unsigned char { kUnknown, kDefined, kUndefined };
+  const PointCloud& cloud_;
+  const KdTree& tree_;
+  NormalSettings settings_;
+  std::vector<Eigen::Vector3d> normals_;
+  std::vector<State> state_;
+  std::size_t estimated_ = 0, undefined_ = 0;
+};
 
 }  // namespace align3d

@@ -13,7 +13,7 @@
 //      (σ̂: the point-to-plane RMS of the last stage, i.e. the noise), still weighted.
 // On large clouds the coarse stages of step 2 use an even thinning of the source to at most 50 000
 // points (every m-th point along a Morton curve); the final stage uses every point.
-// Target normals are computed for `auto` whatever the final metric. Measured on the conveyor
+// Target normals are used for `auto` whatever the final metric. Measured on the conveyor
 // variants and partial object views of tests/registration_test.cpp; the point-to-point coarse
 // stages we tried first slid along the plane toward the intruder wall on the wide-plane variant.
 #pragma once
@@ -57,6 +57,9 @@ struct RegistrationResult {
   std::vector<StageRecord> stages;
   int total_iterations = 0;
   double point_spacing = 0;  // the target spacing s used for `auto` (0 otherwise)
+  // Target normals estimated here when the target has none: only where pairs needed them
+  // (normals.hpp, NormalCache), and of those, the neighbourhoods with no plane.
+  std::size_t estimated_normals = 0;
   std::size_t undefined_normals = 0;
 };
 

@@ -162,7 +162,9 @@ int run_register(const RegisterOptions& o, Streams io) {
 
   nlohmann::json report = registration_json(r, o, source.size(), target.size());
   report["timing_ms"] = {{"total", ms(start, end)}, {"read", ms(start_read, start)}};
-  if (r.undefined_normals > 0) report["undefined_normals"] = r.undefined_normals;
+  if (r.estimated_normals > 0) {
+    report["normals"] = {{"estimated", r.estimated_normals}, {"undefined", r.undefined_normals}};
+  }
   if (coarse) report["global"] = global_json(*coarse);
   const Eigen::Isometry3d& T = r.icp.T_target_source;
   if (truth) {

@@ -109,8 +109,9 @@ struct AlignedSupport {
 
 // Evaluates the kept pairs at pose T and solves for the update (in coordinates about `centre`).
 Step solve_step(const std::vector<Eigen::Vector3d>& source, const PointCloud& target,
-                const Correspondences& c, const Eigen::Isometry3d& T, const Eigen::Vector3d& centre,
-                double threshold, const IcpSettings& s) {
+                const std::vector<Eigen::Vector3d>& normals, const Correspondences& c,
+                const Eigen::Isometry3d& T, const Eigen::Vector3d& centre, double threshold,
+                const IcpSettings& s) {
   Step step;
   auto weight = [&](double d) { return geman_mcclure_weight(d, s.robust_scale); };
   auto finish = [&](const auto& totals, std::size_t min_pairs) {
@@ -134,7 +135,7 @@ Step solve_step(const std::vector<Eigen::Vector3d>& source, const PointCloud& ta
       source, target, c, T, centre, threshold, s.threads,
       [&](LinearSystem6& sums, const Eigen::Vector3d& p, const Eigen::Vector3d& q, std::size_t j,
           double) {
-        const Eigen::Vector3d& normal = target.normals[j];
+        const Eigen::Vector3d& normal = normals[j];
         const double r = PointToPlaneFactor::residual(p, q, normal);
         sums.add(PointToPlaneFactor::jacobian(p, normal), r, weight(std::abs(r)));
         return r * r;
@@ -151,7 +152,7 @@ Step solve_step(const std::vector<Eigen::Vector3d>& source, const PointCloud& ta
           source, target, c, T, centre, threshold, s.threads,
           [&](AlignedSupport& sums, const Eigen::Vector3d& p, const Eigen::Vector3d& q,
               std::size_t j, double) {
-            const Eigen::Vector3d& normal = target.normals[j];
+            const Eigen::Vector3d& normal = normals[j];
             const double r = PointToPlaneFactor::residual(p, q, normal);
             const Vector6d J = a.scale.cwiseProduct(PointToPlaneFactor::jacobian(p, normal));
             const double w = weight(std::abs(r));
@@ -202,15 +203,27 @@ bool stop_before_update(const std::vector<IterationRecord>& history, double prev
   return false;
 }
 
-}  // namespace
+// The target points of the kept pairs whose normal `cache` does not know yet (in source order,
+// with repeats).
+std::vector<std::uint32_t> missing_normals(const Correspondences& c, double threshold,
+                                           const NormalCache& cache, int threads) {
+  return parallel_reduce(
+      c.target.size(), threads, std::vector<std::uint32_t>{},
+      [&](std::vector<std::uint32_t>& missing, std::size_t i) {
+        const std::size_t j = c.target[i];
+        if (j != kNone && c.distance[i] <= threshold && !cache.known(j))
+          missing.push_back(static_cast<std::uint32_t>(j));
+      },
+      [](std::vector<std::uint32_t>& a, const std::vector<std::uint32_t>& b) {
+        a.insert(a.end(), b.begin(), b.end());
+      });
+}
 
-IcpResult icp(const PointCloud& source, const PointCloud& target, const KdTree& tree,
-              const Eigen::Isometry3d& init, const IcpSettings& s) {
-  if (s.method == IcpMethod::kPointToPlane && !target.has_normals())
-    throw std::invalid_argument("icp: point-to-plane needs target normals");
-  if (tree.size() != target.size())
-    throw std::invalid_argument("icp: the kd-tree does not index the target");
-
+// The loop; point-to-plane takes its normals from `cache` when there is one (estimating those the
+// kept pairs need first), from target.normals otherwise.
+IcpResult run_icp(const PointCloud& source, const PointCloud& target, const KdTree& tree,
+                  const Eigen::Isometry3d& init, const IcpSettings& s, NormalCache* cache) {
+  const std::vector<Eigen::Vector3d>& normals = cache ? cache->normals() : target.normals;
   const Eigen::Vector3d centre = centroid(target);
   const Eigen::Translation3d to_world(centre);
   const double diagonal = bounding_box_diagonal(target);
@@ -236,7 +249,10 @@ IcpResult icp(const PointCloud& source, const PointCloud& target, const KdTree& 
     find_correspondences(moving, target, tree, result.T_target_source, s.rejection.search_bound(),
                          s.threads, c);
     const double threshold = threshold_for(s.rejection, c);
-    Step step = solve_step(moving, target, c, result.T_target_source, centre, threshold, s);
+    if (cache && s.method == IcpMethod::kPointToPlane)
+      cache->require(missing_normals(c, threshold, *cache, s.threads));
+    Step step =
+        solve_step(moving, target, normals, c, result.T_target_source, centre, threshold, s);
     result.history.push_back({step.rms, step.kept, threshold});
     result.rms = step.rms;
     result.correspondences = step.kept;
@@ -263,6 +279,22 @@ IcpResult icp(const PointCloud& source, const PointCloud& target, const KdTree& 
                                         static_cast<double>(source.size());
   result.converged = is_convergence(result.stop_reason);
   return result;
+}
+
+}  // namespace
+
+IcpResult icp(const PointCloud& source, const PointCloud& target, const KdTree& tree,
+              const Eigen::Isometry3d& init, const IcpSettings& s) {
+  if (s.method == IcpMethod::kPointToPlane && !target.has_normals())
+    throw std::invalid_argument("icp: point-to-plane needs target normals");
+  if (tree.size() != target.size())
+    throw std::invalid_argument("icp: the kd-tree does not index the target");
+  return run_icp(source, target, tree, init, s, nullptr);
+}
+
+IcpResult icp(const PointCloud& source, NormalCache& target, const Eigen::Isometry3d& init,
+              const IcpSettings& s) {
+  return run_icp(source, target.cloud(), target.tree(), init, s, &target);
 }
 
 }  // namespace align3d

@@ -11,6 +11,7 @@
 #include "align3d/icp/rejection.hpp"
 #include "align3d/icp/termination.hpp"
 #include "align3d/kdtree.hpp"
+#include "align3d/normals.hpp"
 #include "align3d/point_cloud.hpp"
 #include "align3d/se3.hpp"
 
@@ -64,5 +65,11 @@ struct IcpResult {
 // target.positions; point-to-plane needs target normals (std::invalid_argument otherwise).
 IcpResult icp(const PointCloud& source, const PointCloud& target, const KdTree& tree,
               const Eigen::Isometry3d& init, const IcpSettings& settings);
+
+// The same with the target's normals estimated as point-to-plane needs them (normals.hpp,
+// NormalCache): only the target points of kept pairs get one, and the result has the same bits as
+// with every normal estimated first. The cache may be shared by several runs on one target.
+IcpResult icp(const PointCloud& source, NormalCache& target, const Eigen::Isometry3d& init,
+              const IcpSettings& settings);
 
 }  // namespace align3d
