@@ -66,8 +66,8 @@ void KdTreeNearest(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations() * static_cast<int64_t>(queries.size()));
 }
 
-// Every model point's 20 nearest: the normals' search.
-template <class Tree>
+// Every model point's 20 nearest: the normals' search (knn_unsorted) or sorted (knn).
+template <class Tree, bool kSorted = true>
 void KdTreeKnn(benchmark::State& state) {
   const auto& cloud = scene(static_cast<int>(state.range(0))).model;
   const Tree tree(cloud.positions);
@@ -76,7 +76,11 @@ void KdTreeKnn(benchmark::State& state) {
   for (auto _ : state) {
     double sum = 0;
     for (std::uint32_t i : order) {
-      tree.knn(cloud.positions[i], 20, nb);
+      if constexpr (kSorted) {
+        tree.knn(cloud.positions[i], 20, nb);
+      } else {
+        tree.knn_unsorted(cloud.positions[i], 20, nb);
+      }
       sum += nb.back().sq_distance;
     }
     benchmark::DoNotOptimize(sum);
@@ -134,6 +138,10 @@ BENCHMARK_TEMPLATE(KdTreeNearest, bench::NanoflannTree)
     ->ArgNames({"n", "bound"})
     ->Unit(benchmark::kMillisecond);
 BENCHMARK_TEMPLATE(KdTreeKnn, KdTree)
+    ->RangeMultiplier(10)
+    ->Range(10000, 10000000)
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK_TEMPLATE(KdTreeKnn, KdTree, false)
     ->RangeMultiplier(10)
     ->Range(10000, 10000000)
     ->Unit(benchmark::kMillisecond);

@@ -19,7 +19,7 @@ void check(const PointCloud& cloud, const KdTree& tree, const NormalSettings& se
 bool normal_at(const PointCloud& cloud, const KdTree& tree, std::size_t index,
                const NormalSettings& settings, std::vector<Neighbor>& nb, Eigen::Vector3d& normal) {
   const Eigen::Vector3d& p = cloud.positions[index];
-  tree.knn(p, static_cast<std::size_t>(settings.k), nb);
+  tree.knn_unsorted(p, static_cast<std::size_t>(settings.k), nb);
   // One pass over the neighbours, about p (they are within a few spacings of it, so the second
   // moments lose no precision to the cloud's offset from the origin).
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();

@@ -92,6 +92,22 @@ void check_against_brute_force(const std::vector<Eigen::Vector3d>& points, Rando
         EXPECT_EQ(sq_dist(query, points[found[i].index]), found[i].sq_distance);
       }
       EXPECT_EQ(distinct.size(), found.size()) << "an index reported twice";
+
+      // knn_unsorted: the same distances once sorted, each that of its index, no index twice.
+      tree.knn_unsorted(query, k, found);
+      ASSERT_EQ(found.size(), std::min(k, n)) << "k = " << k;
+      std::vector<double> sorted;
+      distinct.clear();
+      for (const auto& m : found) {
+        ASSERT_LT(m.index, n);
+        distinct.insert(m.index);
+        EXPECT_EQ(sq_dist(query, points[m.index]), m.sq_distance);
+        sorted.push_back(m.sq_distance);
+      }
+      EXPECT_EQ(distinct.size(), found.size()) << "an index reported twice";
+      std::sort(sorted.begin(), sorted.end());
+      for (std::size_t i = 0; i < sorted.size(); ++i)
+        EXPECT_EQ(sorted[i], brute[i]) << "unsorted, k = " << k << ", rank " << i;
     }
 
     // Radii between the 0th and ~30th smallest distance. A radius with a point exactly on it is
@@ -211,6 +227,9 @@ TEST(KdTree, EmptyTreeFindsNothing) {
   tree.knn(Eigen::Vector3d::Zero(), 5, found);
   EXPECT_TRUE(found.empty());
   found.resize(3);
+  tree.knn_unsorted(Eigen::Vector3d::Zero(), 5, found);
+  EXPECT_TRUE(found.empty());
+  found.resize(3);
   tree.radius(Eigen::Vector3d::Zero(), 100.0, found);
   EXPECT_TRUE(found.empty());
 }
@@ -285,6 +304,9 @@ TEST(KdTree, NanQueriesFindNothing) {
   EXPECT_FALSE(tree.nearest(nan_query, nb));
   std::vector<Neighbor> found(3);
   tree.knn(nan_query, 5, found);
+  EXPECT_TRUE(found.empty());
+  found.resize(3);
+  tree.knn_unsorted(nan_query, 5, found);
   EXPECT_TRUE(found.empty());
   tree.radius(nan_query, 1.0, found);
   EXPECT_TRUE(found.empty());

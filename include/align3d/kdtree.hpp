@@ -44,6 +44,11 @@ class KdTree {
   // The min(k, size()) nearest points, closest first, written into `out` (resized).
   void knn(const Eigen::Vector3d& query, std::size_t k, std::vector<Neighbor>& out) const;
 
+  // The same neighbourhood in an unspecified order (the same for a given tree and query), for
+  // callers that need the set and not the ranking, as the normals do: ~20 % faster for k = 20
+  // (bench KdTreeKnn). Among points tied at the k-th distance it may keep others than knn.
+  void knn_unsorted(const Eigen::Vector3d& query, std::size_t k, std::vector<Neighbor>& out) const;
+
   // All points with squared distance <= sq_radius, closest first, written into `out`.
   void radius(const Eigen::Vector3d& query, double sq_radius, std::vector<Neighbor>& out) const;
 
