@@ -3,7 +3,7 @@
 
 Usage:
   bench/compare.py [SCENE_DIR ...] [--scenes chapter,parts-100k,parts-1m] [--runs 5] [--warmup 1]
-                   [--systems align3d,align3d-auto,open3d,pcl] [--tasks icp-point,icp-plane,...]
+                   [--systems align3d,align3d-auto,align3d-all-normals,open3d,pcl] [--tasks icp-point,icp-plane,...]
                    [--init perturbed|identity] [--max-distance D] [--json FILE]
 
 A scene is a directory with model.ply (the target), scan.ply (the source) and ground_truth.txt
@@ -13,9 +13,9 @@ A scene is a directory with model.ply (the target), scan.ply (the source) and gr
   parts-100k, parts-1m, parts-N   `align3d synth DIR --scene parts --points N` (k = 1e3, m = 1e6)
 
 Runners (one command-line contract, bench/runner_common.hpp): build/align3d_run (main build with
--DALIGN3D_BUILD_BENCH=ON; also runs the `align3d (auto)` row with --auto), build-peers/open3d_run and
-build-peers/pcl_run (cmake -S bench/peers -B build-peers). A runner that is not built is skipped
-with a note.
+-DALIGN3D_BUILD_BENCH=ON; also runs the `align3d (auto)` row with --auto and, for point-to-plane,
+the `align3d (all normals)` row with --all-normals), build-peers/open3d_run and build-peers/pcl_run
+(cmake -S bench/peers -B build-peers). A runner that is not built is skipped with a note.
 
 Settings, the same for every system:
   init  ground truth × P, P = rotation by 4° about the axis (1, -1, 2)/√6 through the scan's
@@ -192,9 +192,15 @@ def make_scene(name, cache, cli):
 SYSTEMS = {  # key: (display name, runner path option, extra arguments)
     "align3d": ("align3d", "align3d_run", []),
     "align3d-auto": ("align3d (auto)", "align3d_run", ["--auto"]),
+    "align3d-all-normals": ("align3d (all normals)", "align3d_run", ["--all-normals"]),
     "open3d": ("Open3D", "open3d_run", []),
     "pcl": ("PCL", "pcl_run", []),
 }
+
+# The align3d variants run only the tasks they change: `auto` is an ICP setting; `--all-normals`
+# estimates every target normal before point-to-plane ICP, as Open3D and PCL do (align3d itself
+# estimates only those its pairs use).
+VARIANT_TASKS = {"align3d-auto": ("icp-point", "icp-plane"), "align3d-all-normals": ("icp-plane",)}
 
 
 def run_once(exe, extra, task, scene, init_path, s, timeout):
@@ -238,7 +244,7 @@ def main():
     ap.add_argument("--build", default=os.path.join(REPO, "build"), help="holds align3d_run")
     ap.add_argument("--peers-build", default=os.path.join(REPO, "build-peers"),
                     help="holds open3d_run and pcl_run")
-    ap.add_argument("--systems", default="align3d,align3d-auto,open3d,pcl")
+    ap.add_argument("--systems", default="align3d,align3d-auto,align3d-all-normals,open3d,pcl")
     ap.add_argument("--tasks", default=",".join(TASKS))
     ap.add_argument("--runs", type=int, default=5)
     ap.add_argument("--warmup", type=int, default=1)
@@ -311,9 +317,7 @@ def main():
             per_system = {key: [] for key in runners}
             for round_ in range(args.warmup + args.runs):
                 for key, (name, exe, extra) in runners.items():
-                    if task == "global" and key == "align3d-auto":
-                        continue  # the auto schedule is an ICP setting
-                    if task == "normals" and key == "align3d-auto":
+                    if task not in VARIANT_TASKS.get(key, TASKS):
                         continue
                     r = run_once(exe, extra, task, scene, init_path, settings, args.timeout)
                     r.update({"scene": label, "system_key": key, "round": round_,
@@ -330,7 +334,7 @@ def main():
                 runs = per_system[key]
                 name = runners[key][0]
                 if not runs:
-                    if not (key == "align3d-auto" and task in ("global", "normals")):
+                    if task in VARIANT_TASKS.get(key, TASKS):
                         rows.append([label, "", name, task, "failed"] + [""] * 9)
                     continue
                 med = statistics.median(r["time_ms"] for r in runs)
