@@ -346,6 +346,20 @@ TEST_F(IoTest, PlyNormalsAreNormalised) {
   EXPECT_LT((cloud.normals[1] - Eigen::Vector3d(0.6, 0.8, 0)).norm(), 1e-15);
 }
 
+TEST_F(IoTest, PlyNormalsWithTinyOrHugeComponentsBecomeUnitVectors) {
+  // Their squared norms underflow (1e-170, subnormal 4e-310) or overflow (1e200); found by the PLY
+  // fuzzer, which required every normal to have norm 1 within 1e-9.
+  const PointCloud cloud = read_point_cloud(write_file(
+      "n.ply",
+      "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+      "property float z\nproperty double nx\nproperty double ny\nproperty double nz\nend_header\n"
+      "0 0 0 0 3e-170 4e-170\n1 1 1 -4e-310 0 0\n2 2 2 3e200 0 4e200\n"));
+  ASSERT_TRUE(cloud.has_normals());
+  EXPECT_LT((cloud.normals[0] - Eigen::Vector3d(0, 0.6, 0.8)).norm(), 1e-15);
+  EXPECT_EQ(cloud.normals[1], Eigen::Vector3d(-1, 0, 0));
+  EXPECT_LT((cloud.normals[2] - Eigen::Vector3d(0.6, 0, 0.8)).norm(), 1e-15);
+}
+
 TEST_F(IoTest, PlyZeroOrNaNNormalMeansNoNormals) {
   const std::string header =
       "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\n"

@@ -322,10 +322,12 @@ class CloudBuilder {
     positions_.emplace_back(x, y, z);
     if (!normals_ok_) return;
     const Eigen::Vector3d n(nx, ny, nz);
-    const double sq_norm = n.squaredNorm();
-    // A zero normal is how many tools write "unknown"; it cannot be made a unit vector.
-    if (std::isfinite(sq_norm) && sq_norm > 0.0) {
-      normals_.push_back(n);
+    // A zero normal is how many tools write "unknown"; it cannot be made a unit vector. Others are
+    // scaled by their largest component first, so that tiny (even subnormal) or huge components
+    // still normalise to a unit vector: their squared norm would underflow or overflow.
+    const double largest = n.cwiseAbs().maxCoeff();
+    if (n.allFinite() && largest > 0.0) {
+      normals_.push_back(n / largest);
     } else {
       normals_ok_ = false;
       normals_ = {};
