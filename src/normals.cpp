@@ -2,16 +2,19 @@
 
 #include <Eigen/Eigenvalues>
 #include <stdexcept>
+#include <string>
 
 #include "align3d/parallel.hpp"
 
 namespace align3d {
 namespace {
 
-void check(const PointCloud& cloud, const KdTree& tree, const NormalSettings& settings) {
-  if (settings.k < 3) throw std::invalid_argument("estimate_normals: k must be >= 3");
+// `who` names the caller in the messages.
+void check(const PointCloud& cloud, const KdTree& tree, const NormalSettings& settings,
+           const std::string& who) {
+  if (settings.k < 3) throw std::invalid_argument(who + ": k must be >= 3");
   if (tree.size() != cloud.size())
-    throw std::invalid_argument("estimate_normals: the kd-tree does not index the cloud");
+    throw std::invalid_argument(who + ": the kd-tree does not index the cloud");
 }
 
 // The normal at point `index` (PCA of its k nearest neighbours); false when the neighbourhood has
@@ -54,7 +57,7 @@ bool normal_at(const PointCloud& cloud, const KdTree& tree, std::size_t index,
 
 NormalResult estimate_normals(PointCloud& cloud, const KdTree& tree,
                               const NormalSettings& settings) {
-  check(cloud, tree, settings);
+  check(cloud, tree, settings, "estimate_normals");
   const std::size_t n = cloud.size();
   // Points are visited in the tree's leaf order so consecutive searches share cached tree nodes;
   // results are written in that order too (each thread to its own stretch, no shared cache lines)
@@ -83,7 +86,7 @@ NormalResult estimate_normals(PointCloud& cloud, const NormalSettings& settings)
 NormalCache::NormalCache(const PointCloud& cloud, const KdTree& tree,
                          const NormalSettings& settings)
     : cloud_(cloud), tree_(tree), settings_(settings) {
-  check(cloud, tree, settings);
+  check(cloud, tree, settings, "NormalCache");
   normals_.resize(cloud.size());
   state_.assign(cloud.size(), kUnknown);
 }
