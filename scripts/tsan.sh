@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# ThreadSanitizer run of the tests that exercise align3d's parallel code (include/align3d/
-# parallel.hpp: kd-tree queries in ICP, normals, FPFH, RANSAC, PPF, and the determinism tests).
+# ThreadSanitizer run of the tests that exercise align3d's parallel code (src/detail/parallel.hpp:
+# kd-tree queries in ICP, normals, FPFH, RANSAC, PPF, and the determinism tests).
 # GCC's libgomp is not instrumented, so TSan would see no synchronisation in OpenMP barriers and
 # report false races; this build uses clang with LLVM's libomp, whose OMPT tool Archer
 # (libarcher.so) tells TSan about OpenMP's happens-before edges. The TsanSelfCheck tests check the

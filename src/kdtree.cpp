@@ -9,7 +9,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "align3d/parallel.hpp"
+#include "detail/parallel.hpp"
 
 namespace align3d {
 

@@ -4,7 +4,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "align3d/parallel.hpp"
+#include "detail/parallel.hpp"
 
 namespace align3d {
 namespace {

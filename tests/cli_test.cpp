@@ -11,7 +11,7 @@
 #include "align3d/error.hpp"
 #include "align3d/io/matrix_io.hpp"
 #include "align3d/io/point_cloud_io.hpp"
-#include "align3d/random.hpp"
+#include "detail/random.hpp"
 #include "test_util.hpp"
 
 namespace align3d {

@@ -10,7 +10,7 @@
 #include "align3d/icp/icp.hpp"
 #include "align3d/kdtree.hpp"
 #include "align3d/normals.hpp"
-#include "align3d/random.hpp"
+#include "detail/random.hpp"
 #include "test_util.hpp"
 
 namespace align3d {

@@ -16,9 +16,9 @@
 #include "align3d/coarse/global.hpp"
 #include "align3d/coarse/voxel.hpp"
 #include "align3d/normals.hpp"
-#include "align3d/random.hpp"
 #include "align3d/se3.hpp"
 #include "align3d/synth/scenes.hpp"
+#include "detail/random.hpp"
 #include "test_util.hpp"
 
 namespace align3d {

@@ -20,9 +20,9 @@
 #include "align3d/icp/rejection.hpp"
 #include "align3d/kdtree.hpp"
 #include "align3d/normals.hpp"
-#include "align3d/random.hpp"
 #include "align3d/se3.hpp"
 #include "align3d/synth/scenes.hpp"
+#include "detail/random.hpp"
 
 namespace align3d {
 namespace {

@@ -12,8 +12,8 @@
 #include <stdexcept>
 #include <vector>
 
-#include "align3d/random.hpp"
 #include "align3d/se3.hpp"
+#include "detail/random.hpp"
 
 namespace align3d {
 namespace {

@@ -16,7 +16,7 @@
 #include <string>
 #include <vector>
 
-#include "align3d/random.hpp"
+#include "detail/random.hpp"
 
 namespace align3d {
 namespace {

@@ -11,9 +11,9 @@
 
 #include "align3d/error.hpp"
 #include "align3d/plane/rectify.hpp"
-#include "align3d/random.hpp"
 #include "align3d/se3.hpp"
 #include "align3d/synth/scenes.hpp"
+#include "detail/random.hpp"
 
 namespace align3d {
 namespace {

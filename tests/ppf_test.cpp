@@ -15,9 +15,9 @@
 
 #include "align3d/error.hpp"
 #include "align3d/io/atomic_file.hpp"
-#include "align3d/random.hpp"
 #include "align3d/se3.hpp"
 #include "align3d/synth/scenes.hpp"
+#include "detail/random.hpp"
 #include "test_util.hpp"
 
 namespace align3d {

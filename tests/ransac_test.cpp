@@ -13,9 +13,9 @@
 #include <string>
 
 #include "align3d/error.hpp"
-#include "align3d/random.hpp"
 #include "align3d/se3.hpp"
 #include "align3d/synth/scenes.hpp"
+#include "detail/random.hpp"
 #include "test_util.hpp"
 
 namespace align3d {

@@ -7,8 +7,8 @@
 #include <string>
 
 #include "align3d/point_cloud.hpp"
-#include "align3d/random.hpp"
 #include "align3d/se3.hpp"
+#include "detail/random.hpp"
 
 namespace align3d::test {
 

@@ -15,7 +15,7 @@
 #include <cstring>
 #include <vector>
 
-#include "align3d/parallel.hpp"
+#include "detail/parallel.hpp"
 
 int main(int argc, char** argv) {
   const bool race = argc > 1 && std::strcmp(argv[1], "race") == 0;

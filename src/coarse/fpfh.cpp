@@ -8,7 +8,7 @@
 #include <queue>
 #include <stdexcept>
 
-#include "align3d/parallel.hpp"
+#include "detail/parallel.hpp"
 
 namespace align3d {
 namespace {

@@ -1,6 +1,6 @@
 #include "align3d/coarse/global.hpp"
 #include "align3d/kdtree.hpp"
-#include "align3d/parallel.hpp"
+#include "detail/parallel.hpp"
 
 namespace align3d {
 

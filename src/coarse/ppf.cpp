@@ -19,8 +19,8 @@
 #include "align3d/kabsch.hpp"
 #include "align3d/kdtree.hpp"
 #include "align3d/normals.hpp"
-#include "align3d/parallel.hpp"
 #include "align3d/se3.hpp"
+#include "detail/parallel.hpp"
 
 namespace align3d {
 namespace {

@@ -26,10 +26,10 @@
 #include "align3d/kabsch.hpp"
 #include "align3d/kdtree.hpp"
 #include "align3d/normals.hpp"
-#include "align3d/parallel.hpp"
-#include "align3d/random.hpp"
 #include "align3d/registration.hpp"
 #include "align3d/se3.hpp"
+#include "detail/parallel.hpp"
+#include "detail/random.hpp"
 
 namespace align3d {
 namespace {

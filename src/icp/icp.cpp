@@ -8,7 +8,7 @@
 #include "align3d/icp/degeneracy.hpp"
 #include "align3d/icp/factors.hpp"
 #include "align3d/kabsch.hpp"
-#include "align3d/parallel.hpp"
+#include "detail/parallel.hpp"
 
 namespace align3d {
 namespace {

@@ -9,7 +9,7 @@
 #include <string>
 
 #include "align3d/error.hpp"
-#include "align3d/random.hpp"
+#include "detail/random.hpp"
 
 namespace align3d {
 

@@ -5,10 +5,10 @@
 #include <cmath>
 
 #include "align3d/coarse/global.hpp"
-#include "align3d/random.hpp"
 #include "align3d/registration.hpp"
 #include "align3d/se3.hpp"
 #include "align3d/synth/scenes.hpp"
+#include "detail/random.hpp"
 
 namespace align3d::report {
 namespace {
