@@ -9,9 +9,9 @@
 #include <map>
 #include <vector>
 
+#include "align3d/align.hpp"
 #include "align3d/kdtree.hpp"
 #include "align3d/normals.hpp"
-#include "align3d/registration.hpp"
 #include "align3d/synth/scenes.hpp"
 #include "nanoflann_baseline.hpp"
 
@@ -115,8 +115,7 @@ void IcpIteration(benchmark::State& state) {
 
 void Registration(benchmark::State& state) {
   const auto& s = scene(static_cast<int>(state.range(0)));
-  for (auto _ : state)
-    benchmark::DoNotOptimize(register_clouds(s.scan, s.model, Eigen::Isometry3d::Identity()));
+  for (auto _ : state) benchmark::DoNotOptimize(align(s.scan, s.model));
   state.SetItemsProcessed(state.iterations() * static_cast<int64_t>(s.scan.size()));
 }
 

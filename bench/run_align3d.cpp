@@ -1,25 +1,29 @@
 // align3d_run: align3d's runner for the side-by-side comparison (bench/compare.py); the contract is
 // in bench/runner_common.hpp. Uses only the public API.
 //   normals    KdTree + estimate_normals (k = K)
-//   icp-*      register_clouds with rejection distance:D (one ICP run, plain least squares: no
-//              robust kernel), tolerance 1e-6 relative, the transform criterion left on (its
-//              default); target normals are estimated inside (k = K) for point-to-plane.
+//   icp-*      refine() (the ICP layer, as Open3D's registration_icp) with rejection distance:D
+//              (one ICP run, plain least squares: no robust kernel), tolerance 1e-6 relative,
+//              the transform criterion left on (its default); target normals are estimated
+//              inside (k = K) for point-to-plane.
 //              Target normals are estimated only for the target points that pairs use
 //              (NormalCache); --all-normals estimates all of them first (timed), as Open3D and PCL
-//              do. --auto: the same but with no rejection rule, i.e. the library's `auto` schedule.
+//              do. --auto: the whole pipeline as `align3d register` runs it from --init: align()
+//              with its defaults (init auto: the `auto` schedule, the support measurement, and the
+//              global stage when the answer from the initial pose is weak).
 //   global     global_register, FPFH + RANSAC (the `--init global` coarse stage), seed 1
 #include <omp.h>
 
 #include <Eigen/Geometry>
 #include <cmath>
 
+#include "align3d/align.hpp"
 #include "align3d/coarse/global.hpp"
 #include "align3d/icp/icp.hpp"
+#include "align3d/icp/refine.hpp"
 #include "align3d/io/matrix_io.hpp"
 #include "align3d/io/point_cloud_io.hpp"
 #include "align3d/kdtree.hpp"
 #include "align3d/normals.hpp"
-#include "align3d/registration.hpp"
 #include "runner_common.hpp"
 
 namespace {
@@ -99,23 +103,36 @@ bench::Report run(const bench::RunnerArgs& a) {
     return r;
   }
 
-  align3d::RegistrationSettings rs;
+  if (automatic) {
+    align3d::AlignSettings as;
+    as.initial_pose = init;
+    as.refine.normals.k = a.k;
+    as.threads = a.threads;
+    align3d::AlignResult result;
+    bench::timed(r, [&] { result = align3d::align(source, target, as); });
+    r.iterations = result.refine.total_iterations;
+    r.transformation = to_matrix4(result.transformation);
+    r.extra["path"] = bench::json_string(result.path);
+    r.extra["stop"] = bench::json_string(align3d::to_string(result.refine.icp.stop_reason));
+    evaluate(source, target, result.transformation, a.max_distance, r);
+    return r;
+  }
+  align3d::RefineSettings rs;
   rs.method =
       a.task == "icp-point" ? align3d::IcpMethod::kPointToPoint : align3d::IcpMethod::kPointToPlane;
-  if (!automatic) rs.rejection = align3d::RejectionRule::max_distance(a.max_distance);
-  rs.max_iterations = a.max_iterations;
-  rs.tolerance = 1e-6;
-  rs.tolerance_relative = true;
+  rs.rejection = align3d::RejectionRule::max_distance(a.max_distance);
+  rs.termination.max_iterations = a.max_iterations;
+  rs.termination.rms_change = 1e-6;
   rs.normals.k = a.k;
   rs.threads = a.threads;
-  align3d::RegistrationResult result;
+  align3d::RefineResult result;
   bench::timed(r, [&] {
     if (all_normals && rs.method == align3d::IcpMethod::kPointToPlane) {
       align3d::NormalSettings ns = rs.normals;
       ns.threads = a.threads;
-      align3d::estimate_normals(target, ns);  // then register_clouds uses them as given
+      align3d::estimate_normals(target, ns);  // then refine uses them as given
     }
-    result = align3d::register_clouds(source, target, init, rs);
+    result = align3d::refine(source, target, init, rs);
   });
   r.iterations = result.total_iterations;
   r.transformation = to_matrix4(result.icp.T_target_source);

@@ -1,10 +1,10 @@
 #include "align3d/normals.hpp"
 
-#include <Eigen/Eigenvalues>
 #include <stdexcept>
 #include <string>
 
 #include "detail/parallel.hpp"
+#include "detail/pca.hpp"
 
 namespace align3d {
 namespace {
@@ -23,21 +23,7 @@ bool normal_at(const PointCloud& cloud, const KdTree& tree, std::size_t index,
                const NormalSettings& settings, std::vector<Neighbor>& nb, Eigen::Vector3d& normal) {
   const Eigen::Vector3d& p = cloud.positions[index];
   tree.knn_unsorted(p, static_cast<std::size_t>(settings.k), nb);
-  // One pass over the neighbours, about p (they are within a few spacings of it, so the second
-  // moments lose no precision to the cloud's offset from the origin).
-  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-  Eigen::Matrix3d second = Eigen::Matrix3d::Zero();
-  for (const auto& m : nb) {
-    const Eigen::Vector3d d = cloud.positions[m.index] - p;
-    sum += d;
-    second.noalias() += d * d.transpose();
-  }
-  const double count = static_cast<double>(nb.size());
-  const Eigen::Vector3d mean = sum / count;
-  const Eigen::Matrix3d cov = second / count - mean * mean.transpose();
-  // Closed form for 3×3 (as Open3D's and PCL's normals); eigenvalues ascending.
-  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig;
-  eig.computeDirect(cov);
+  const auto eig = detail::neighbourhood_pca(cloud.positions, p, nb);
   const Eigen::Vector3d ev = eig.eigenvalues();
   const Eigen::Vector3d toward =
       settings.viewpoint ? Eigen::Vector3d(*settings.viewpoint - p) : Eigen::Vector3d::UnitZ();

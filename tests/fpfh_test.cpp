@@ -94,7 +94,7 @@ TEST(Fpfh, InvariantUnderRigidMotionsUpTo180Degrees) {
   synth::ObjectSettings os;
   os.shape = "bracket";
   const auto scene = synth::make_object_scene(os);
-  const double voxel = global_voxel(scene.model, {});
+  const double voxel = global_voxel(scene.model, scene.model, {});
   PointCloud cloud = voxel_downsample(scene.model, voxel);
   const KdTree tree(cloud.positions);
   estimate_normals(cloud, tree);
@@ -115,7 +115,7 @@ TEST(Fpfh, InvariantUnderRigidMotionsUpTo180Degrees) {
 // where the meeting line depends on round-off (documented in fpfh.hpp).
 TEST(Fpfh, DescriptorStageInvariantOnTheChapterScan) {
   const auto scene = synth::make_conveyor_scene();
-  const double voxel = global_voxel(scene.model, {});
+  const double voxel = global_voxel(scene.model, scene.model, {});
   const PointCloud cloud = voxel_downsample(scene.scan, voxel);
   const auto a = describe(cloud, voxel);
   for (double angle : {90.0, 180.0}) {

@@ -190,18 +190,21 @@ TEST(PlaneRectify, LevelsATiltedPlateOntoZeroWithoutFlippingIt) {
   // exceed 5σ with probability ~2e-3), and the refit tilt is rounding only.
   synth::PlateSettings settings;
   const synth::Plate plate = synth::make_plate(settings);
-  const RectifyResult r = rectify(plate.cloud);
+  RectifySettings lsq;
+  lsq.robust = false;  // the chapter's fit, on every point
+  const RectifyResult r = rectify(plate.cloud, lsq);
+  EXPECT_TRUE(r.warnings.empty());  // a plate alone is flat to its noise
   EXPECT_LT(r.tilt_after_deg, 1e-3);
   EXPECT_NEAR(r.tilt_before_deg, settings.tilt_deg, 0.05);
   EXPECT_EQ(r.inliers, plate.cloud.size());
-  expect_proper_rotation(r.transformation.linear());
+  expect_proper_rotation(r.T_level_cloud.linear());
   // Not flipped: the plate's true upward normal ends up along +Z.
-  EXPECT_LT(angle_deg(r.transformation.linear() * plate.true_normal, Eigen::Vector3d::UnitZ()),
+  EXPECT_LT(angle_deg(r.T_level_cloud.linear() * plate.true_normal, Eigen::Vector3d::UnitZ()),
             0.05);
   EXPECT_GT(r.normal.dot(plate.true_normal), 0.0);
   double worst = 0;
   for (const auto& p : plate.cloud.positions)
-    worst = std::max(worst, std::abs((r.transformation * p).z()));
+    worst = std::max(worst, std::abs((r.T_level_cloud * p).z()));
   EXPECT_LT(worst, 5 * settings.noise_sigma);
   // Flatness is the peak-to-valley of Gaussian noise over 4000 points: ~7σ.
   EXPECT_GT(r.flatness, 4 * settings.noise_sigma);
@@ -224,22 +227,22 @@ TEST(PlaneRectify, PlateFacingDownStaysRightSideUpByDefaultAndHonoursUp) {
   rs.up = plate.true_normal;
   r = rectify(plate.cloud, rs);
   EXPECT_LT(angle_deg(r.normal, plate.true_normal), 0.05);
-  EXPECT_LT(angle_deg(r.transformation.linear() * plate.true_normal, Eigen::Vector3d::UnitZ()),
+  EXPECT_LT(angle_deg(r.T_level_cloud.linear() * plate.true_normal, Eigen::Vector3d::UnitZ()),
             0.05);
-  expect_proper_rotation(r.transformation.linear());
+  expect_proper_rotation(r.T_level_cloud.linear());
   EXPECT_LT(r.tilt_after_deg, 1e-3);
   for (const auto& p : plate.cloud.positions)
-    ASSERT_LT(std::abs((r.transformation * p).z()), 5 * settings.noise_sigma);
+    ASSERT_LT(std::abs((r.T_level_cloud * p).z()), 5 * settings.noise_sigma);
 
   // An upright plate with `up` pointing down is turned over, as asked.
   const synth::Plate upright = synth::make_plate(synth::PlateSettings{});
   rs.up = -Eigen::Vector3d::UnitZ();
   r = rectify(upright.cloud, rs);
   EXPECT_LT(angle_deg(r.normal, -upright.true_normal), 0.05);
-  EXPECT_LT(angle_deg(r.transformation.linear() * -upright.true_normal, Eigen::Vector3d::UnitZ()),
+  EXPECT_LT(angle_deg(r.T_level_cloud.linear() * -upright.true_normal, Eigen::Vector3d::UnitZ()),
             0.05);
   rs.up = Eigen::Vector3d::Zero();
-  EXPECT_THROW(rectify(upright.cloud, rs), DataError);
+  EXPECT_THROW(rectify(upright.cloud, rs), std::invalid_argument);
 }
 
 TEST(PlaneRectify, PartOnThePlateDecidesUpEvenWhenTheNormalLeansDown) {
@@ -254,14 +257,14 @@ TEST(PlaneRectify, PartOnThePlateDecidesUpEvenWhenTheNormalLeansDown) {
   rs.robust = true;
   const RectifyResult r = rectify(plate.cloud, rs);
   EXPECT_LT(angle_deg(r.normal, plate.true_normal), 0.05);
-  EXPECT_LT(angle_deg(r.transformation.linear() * plate.true_normal, Eigen::Vector3d::UnitZ()),
+  EXPECT_LT(angle_deg(r.T_level_cloud.linear() * plate.true_normal, Eigen::Vector3d::UnitZ()),
             0.05);
   EXPECT_LT(r.tilt_after_deg, 1e-3);
   EXPECT_NEAR(r.tilt_before_deg, 92.0, 0.05);
   // The part ends up above the plate: its points at z up to its 30 mm height, none below −5σ.
   double lowest = 0, highest = 0;
   for (const auto& p : plate.cloud.positions) {
-    const double z = (r.transformation * p).z();
+    const double z = (r.T_level_cloud * p).z();
     lowest = std::min(lowest, z);
     highest = std::max(highest, z);
   }
@@ -269,8 +272,26 @@ TEST(PlaneRectify, PartOnThePlateDecidesUpEvenWhenTheNormalLeansDown) {
   EXPECT_NEAR(highest, 30.0, 0.5);
   // The plate's own points are at z ≈ 0.
   for (std::size_t i = 0; i < plate.plate_points; ++i)
-    ASSERT_LT(std::abs((r.transformation * plate.cloud.positions[i]).z()),
-              5 * settings.noise_sigma);
+    ASSERT_LT(std::abs((r.T_level_cloud * plate.cloud.positions[i]).z()), 5 * settings.noise_sigma);
+}
+
+// A least-squares plane through a plate and the part on it (20 % of the points, 30 mm tall) is
+// not a plane the points lie on: the fit warns. The robust default finds the plate and does not.
+TEST(PlaneRectify, WarnsWhenTheFittedPointsAreNotFlat) {
+  synth::PlateSettings settings;
+  settings.clutter_fraction = 0.2;
+  const synth::Plate plate = synth::make_plate(settings);
+  RectifySettings lsq;
+  lsq.robust = false;
+  const RectifyResult plain = rectify(plate.cloud, lsq);
+  ASSERT_EQ(plain.warnings.size(), 1u);
+  EXPECT_EQ(plain.warnings[0].code, "not_flat");
+  EXPECT_GT(plain.rms, 10 * settings.noise_sigma);  // the part, 30 mm tall, is in the fit
+  EXPECT_NEAR(plain.noise, settings.noise_sigma, 0.5 * settings.noise_sigma);
+  const RectifyResult robust = rectify(plate.cloud);
+  EXPECT_TRUE(robust.warnings.empty()) << robust.warnings[0].message;
+  EXPECT_LT(angle_deg(robust.normal, plate.true_normal), 0.05);
+  EXPECT_LT(robust.rms, 2 * settings.noise_sigma);
 }
 
 // A floor seen past the plate's edge (2 % of the points, 20 mm below, outside the plate's
@@ -285,7 +306,7 @@ TEST(PlaneRectify, FloorPastThePlateEdgeDoesNotFlipIt) {
     RectifySettings s;
     s.robust = robust;
     const RectifyResult r = rectify(cloud, s);
-    EXPECT_GT(r.transformation.linear().row(2).dot(plate.true_normal), 0.99) << robust;
+    EXPECT_GT(r.T_level_cloud.linear().row(2).dot(plate.true_normal), 0.99) << robust;
   }
 }
 

@@ -109,8 +109,10 @@ TEST(Ppf, RecoversLargeRotationOfChapterScene) {
 TEST(Ppf, SameResultWithOneAndTwoThreads) {
   const synth::Scene scene = object_scene("bumpy-sphere");
   const Perturbed p = perturb(scene, 120, 14);
-  const PpfModel one = build_ppf_model(scene.model, global_voxel(scene.model, ppf_settings()), 1);
-  const PpfModel two = build_ppf_model(scene.model, global_voxel(scene.model, ppf_settings()), 2);
+  const PpfModel one =
+      build_ppf_model(scene.model, global_voxel(scene.model, scene.model, ppf_settings()), 1);
+  const PpfModel two =
+      build_ppf_model(scene.model, global_voxel(scene.model, scene.model, ppf_settings()), 2);
   expect_same_model(one, two);
   expect_identical(ppf_match(one, p.scan, ppf_settings(1)),
                    ppf_match(one, p.scan, ppf_settings(2)));
@@ -120,7 +122,8 @@ TEST(Ppf, SaveLoadRoundTripGivesIdenticalMatch) {
   test::TempDir dir("ppf_roundtrip");
   const synth::Scene scene = object_scene("bumpy-sphere");
   const Perturbed p = perturb(scene, 140, 15);
-  const PpfModel built = build_ppf_model(scene.model, global_voxel(scene.model, ppf_settings()));
+  const PpfModel built =
+      build_ppf_model(scene.model, global_voxel(scene.model, scene.model, ppf_settings()));
   save_ppf_model(dir / "model.ppf", built);
   const PpfModel loaded = load_ppf_model(dir / "model.ppf");
   expect_same_model(built, loaded);
@@ -211,11 +214,11 @@ TEST(Ppf, PlainBoxIsAmbiguous) {
   EXPECT_TRUE(r.ambiguous) << r.message;
   EXPECT_NE(r.message.find("ambiguous"), std::string::npos);
   // Both poses lay the box onto itself: each is T⁻¹ up to one of the box's symmetries.
-  for (const Eigen::Isometry3d& pose : {r.T_target_source, r.second_T}) {
+  for (const Eigen::Isometry3d& pose : {r.T_target_source, r.second_T_target_source}) {
     const Eigen::Matrix3d S = pose.linear() * T.linear();
     EXPECT_LT((S.cwiseAbs() - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff(), 0.05) << S;
   }
-  EXPECT_GT(test::rotation_error_deg(r.T_target_source, r.second_T), 90.0);
+  EXPECT_GT(test::rotation_error_deg(r.T_target_source, r.second_T_target_source), 90.0);
 }
 
 TEST(Ppf, TooFewPointsThrowDataError) {

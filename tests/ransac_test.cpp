@@ -180,8 +180,8 @@ TEST(FpfhRansac, BoxIsAmbiguous) {
     return best;
   };
   EXPECT_LT(symmetry_error(r.T_target_source), 5.0);
-  EXPECT_LT(symmetry_error(r.second_T), 5.0);
-  EXPECT_NEAR(rotation_error_deg(r.T_target_source, r.second_T), 180.0, 5.0);
+  EXPECT_LT(symmetry_error(r.second_T_target_source), 5.0);
+  EXPECT_NEAR(rotation_error_deg(r.T_target_source, r.second_T_target_source), 180.0, 5.0);
 }
 
 }  // namespace

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "align3d/icp/factors.hpp"
+#include "align3d/icp/kernels.hpp"
 #include "detail/random.hpp"
 
 namespace align3d {

@@ -34,11 +34,11 @@ class TempDir {
 
 inline double rotation_error_deg(const Eigen::Isometry3d& estimate,
                                  const Eigen::Isometry3d& truth) {
-  return rad_to_deg(rotation_angle(estimate.linear().transpose() * truth.linear()));
+  return pose_error(estimate, truth).rotation_deg;
 }
 
 inline double translation_error(const Eigen::Isometry3d& estimate, const Eigen::Isometry3d& truth) {
-  return (estimate.translation() - truth.translation()).norm();
+  return pose_error(estimate, truth).translation;
 }
 
 // The six faces of a 60 × 40 × 20 box centred at the origin, sampled uniformly by area: a shape

@@ -17,6 +17,7 @@ enum class ExitCode : int {
   kData = 4,        // the data cannot be used: too few points, degenerate geometry, no plane
   kOutput = 5,      // an output file could not be written
   kNoSolution = 6,  // registration found no usable solution (too few correspondences)
+  kWarnings = 7,    // --strict: the result came with warnings (it may be wrong); outputs written
 };
 
 class Error : public std::runtime_error {
@@ -42,9 +43,20 @@ class OutputError : public Error {
 };
 
 // Input data is well-formed but unusable (too few points, all points on a line, no plane).
+// The library knows its inputs by their roles ("source", "target"); an error about one of them
+// carries the role as its subject and reads "<subject>: <problem>", so a front end that knows the
+// file can name it instead (the command-line tool does: "scan.ply (source): 8 points; ...").
 class DataError : public Error {
  public:
-  explicit DataError(const std::string& message) : Error(ExitCode::kData, message) {}
+  explicit DataError(const std::string& message)
+      : Error(ExitCode::kData, message), problem_(message) {}
+  DataError(const std::string& subject, const std::string& problem)
+      : Error(ExitCode::kData, subject + ": " + problem), subject_(subject), problem_(problem) {}
+  const std::string& subject() const { return subject_; }  // empty when none was given
+  const std::string& problem() const { return problem_; }  // the message without the subject
+
+ private:
+  std::string subject_, problem_;
 };
 
 class UsageError : public Error {

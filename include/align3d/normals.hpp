@@ -37,7 +37,7 @@ NormalResult estimate_normals(PointCloud& cloud, const NormalSettings& settings 
 // Normals estimated only where they are used. Point-to-plane ICP needs a target normal only at the
 // target points that receive a partner, often a fraction of the target (a partial scan of a larger
 // model: half of the generated parts scenes, three quarters of the chapter's model), so
-// register_clouds estimates them through this cache. Each normal has the bits estimate_normals
+// refine() estimates them through this cache. Each normal has the bits estimate_normals
 // gives it, so the registration is the same as with every normal estimated first.
 // Lifetime: keeps references to `cloud` and `tree` (which must index cloud.positions), which must
 // outlive the cache unchanged. Thread-safety: require() runs in parallel itself and must not be

@@ -45,10 +45,40 @@ inline Eigen::Isometry3d rigid_transform(double angle_deg, const Eigen::Vector3d
   return T;
 }
 
+// The rotation by the shortest arc taking the direction of `from` onto that of `to` (Rodrigues
+// about from × to; both non-zero). The identity when they agree; for opposite directions, where
+// from × to vanishes, a half turn about the coordinate axis least aligned with `to` (made
+// orthogonal to it): x for ±z, y for ±x.
+inline Eigen::Matrix3d shortest_arc(const Eigen::Vector3d& from, const Eigen::Vector3d& to) {
+  const Eigen::Vector3d a = from.normalized(), b = to.normalized();
+  const Eigen::Vector3d axis = a.cross(b);
+  const double sin_angle = axis.norm(), cos_angle = a.dot(b);
+  if (sin_angle > 1e-12)
+    return Eigen::AngleAxisd(std::atan2(sin_angle, cos_angle), axis / sin_angle).toRotationMatrix();
+  if (cos_angle > 0) return Eigen::Matrix3d::Identity();
+  Eigen::Index least = 0;
+  b.cwiseAbs().minCoeff(&least);
+  const Eigen::Vector3d e = Eigen::Vector3d::Unit(least);
+  return Eigen::AngleAxisd(3.14159265358979323846, (e - e.dot(b) * b).normalized())
+      .toRotationMatrix();
+}
+
 // Rotation angle of R in radians, in [0, π]; robust near 0 and π (atan2 form, not acos).
 inline double rotation_angle(const Eigen::Matrix3d& R) {
   const Eigen::Vector3d axis_sin(R(2, 1) - R(1, 2), R(0, 2) - R(2, 0), R(1, 0) - R(0, 1));
   return std::atan2(0.5 * axis_sin.norm(), 0.5 * (R.trace() - 1.0));
+}
+
+// The error of an estimated pose against the truth: the angle of R_estᵀ·R_true (degrees) and the
+// distance between the translations (data units).
+struct PoseError {
+  double rotation_deg = 0;
+  double translation = 0;
+};
+
+inline PoseError pose_error(const Eigen::Isometry3d& estimate, const Eigen::Isometry3d& truth) {
+  return {rad_to_deg(rotation_angle(estimate.linear().transpose() * truth.linear())),
+          (estimate.translation() - truth.translation()).norm()};
 }
 
 // Nearest rotation to M in the Frobenius norm (SVD with the reflection guard).

@@ -1,6 +1,10 @@
 #include "common.hpp"
 
+#include <unistd.h>
+
 #include <cmath>
+#include <cstdio>
+#include <iostream>
 #include <sstream>
 
 #include "align3d/error.hpp"
@@ -16,28 +20,6 @@ PointCloud load_cloud(const std::filesystem::path& path, std::ostream& err) {
     err << "align3d: warning: " << path.string() << ": dropped " << info.dropped_non_finite
         << " points with NaN or Inf coordinates\n";
   return cloud;
-}
-
-nlohmann::json to_json(const Eigen::Isometry3d& T) {
-  nlohmann::json rows = nlohmann::json::array();
-  for (int r = 0; r < 4; ++r) {
-    nlohmann::json row = nlohmann::json::array();
-    for (int c = 0; c < 4; ++c) row.push_back(T.matrix()(r, c));
-    rows.push_back(row);
-  }
-  return rows;
-}
-
-nlohmann::json to_json(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
-
-void write_json(const std::string& path, const nlohmann::json& report, std::ostream& out) {
-  const std::string text = report.dump(2) + "\n";
-  if (path == "-") {
-    out << text;
-    out.flush();
-  } else {
-    io::write_text_atomically(path, text);
-  }
 }
 
 Eigen::Vector3d parse_vector(const std::string& text, const std::string& flag) {
@@ -60,6 +42,68 @@ Eigen::Vector3d parse_vector(const std::string& text, const std::string& flag) {
   if (i != 3)
     throw UsageError(flag + ": expected X,Y,Z (three finite numbers), got '" + text + "'");
   return v;
+}
+
+int report_warnings(const std::vector<Warning>& warnings, bool strict, std::ostream& err) {
+  for (const Warning& w : warnings) err << "align3d: warning: " << w.message << "\n";
+  return strict && !warnings.empty() ? static_cast<int>(ExitCode::kWarnings) : 0;
+}
+
+ProgressLine::ProgressLine(std::ostream& err, bool quiet, std::string label)
+    : err_(err),
+      shown_(!quiet && &err == &std::cerr && isatty(STDERR_FILENO) == 1),
+      label_(std::move(label)),
+      start_(Clock::now()),
+      task_start_(start_),
+      last_draw_(start_) {}
+
+ProgressLine::~ProgressLine() {
+  if (drawn_) err_ << "\r\033[K" << std::flush;
+}
+
+ProgressCallback ProgressLine::callback() {
+  if (!shown_) return {};
+  return [this](const Progress& p) { update(p); };
+}
+
+void ProgressLine::update(const Progress& p) {
+  const auto now = Clock::now();
+  if (p.task != task_ || p.done < last_done_) {  // a new task, or the same one started again
+    task_ = p.task;
+    task_start_ = now;
+  } else if (now - last_draw_ < std::chrono::milliseconds(200)) {
+    return;
+  }
+  last_draw_ = now;
+  last_done_ = p.done;
+  const double elapsed = std::chrono::duration<double>(now - start_).count();
+  const double in_task = std::chrono::duration<double>(now - task_start_).count();
+  char line[256];
+  int n = std::snprintf(line, sizeof line, "%s: %s", label_.c_str(), p.task.c_str());
+  if (p.total > 0 && n > 0 && static_cast<std::size_t>(n) < sizeof line) {
+    n += std::snprintf(line + n, sizeof line - static_cast<std::size_t>(n), " %zu/%zu", p.done,
+                       p.total);
+    if (p.done > 0 && in_task > 0 && static_cast<std::size_t>(n) < sizeof line) {
+      const double rate = static_cast<double>(p.done) / in_task;
+      const auto eta = static_cast<long>(static_cast<double>(p.total - p.done) / rate);
+      std::snprintf(line + n, sizeof line - static_cast<std::size_t>(n), ", %.2g/s, ETA %ld:%02ld",
+                    rate, eta / 60, eta % 60);
+    }
+  }
+  err_ << "\r\033[K" << line << "  [" << static_cast<long>(elapsed) << " s]" << std::flush;
+  drawn_ = true;
+}
+
+void add_quiet(CLI::App* sub, bool& quiet) {
+  sub->add_flag("--quiet", quiet,
+                "No progress line and no summary on stdout (warnings and errors still go to "
+                "stderr)");
+}
+
+void add_threads(CLI::App* sub, int& threads) {
+  sub->add_option("--threads", threads, "Threads (0: all cores); results do not depend on it")
+      ->check(CLI::Range(0, 1024))
+      ->capture_default_str();
 }
 
 }  // namespace align3d::cli

@@ -3,12 +3,17 @@
 
 #include <CLI/CLI.hpp>
 #include <Eigen/Geometry>
+#include <chrono>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <ostream>
 #include <string>
+#include <vector>
 
 #include "align3d/point_cloud.hpp"
+#include "align3d/progress.hpp"
+#include "align3d/report/json.hpp"
+#include "align3d/warning.hpp"
 
 namespace align3d::cli {
 
@@ -20,14 +25,43 @@ struct Streams {
 // Reads a cloud, warning on `err` about dropped non-finite points.
 PointCloud load_cloud(const std::filesystem::path& path, std::ostream& err);
 
-nlohmann::json to_json(const Eigen::Isometry3d& T);  // 4 arrays of 4 numbers, row-major
-nlohmann::json to_json(const Eigen::Vector3d& v);
-
-// Writes `report` to `path` ("-" = `out`), pretty-printed, atomically for files.
-void write_json(const std::string& path, const nlohmann::json& report, std::ostream& out);
+using report::to_json;     // 4 arrays of 4 numbers, row-major; vectors as 3 numbers
+using report::write_json;  // to a file atomically, or to `out` with "-"
 
 // Parses "X,Y,Z" (throws UsageError naming `flag`).
 Eigen::Vector3d parse_vector(const std::string& text, const std::string& flag);
+
+// Prints each warning as "align3d: warning: …" on `err`. Returns the exit code the command ends
+// with: 0, or ExitCode::kWarnings when `strict` and there are warnings.
+int report_warnings(const std::vector<Warning>& warnings, bool strict, std::ostream& err);
+
+// Progress on stderr, redrawn in place at most 5 times a second ("label: task 12/40, 3.1/s,
+// ETA 0:08"), shown only when `err` is the process's stderr and that is a terminal, and never
+// with --quiet; the line is cleared when the work ends.
+class ProgressLine {
+ public:
+  ProgressLine(std::ostream& err, bool quiet, std::string label);
+  ~ProgressLine();
+  ProgressLine(const ProgressLine&) = delete;
+  ProgressLine& operator=(const ProgressLine&) = delete;
+
+  ProgressCallback callback();  // empty when nothing is shown
+  void update(const Progress& p);
+  void set_label(std::string label) { label_ = std::move(label); }
+
+ private:
+  using Clock = std::chrono::steady_clock;
+  std::ostream& err_;
+  bool shown_;
+  std::string label_, task_;
+  Clock::time_point start_, task_start_, last_draw_;
+  std::size_t last_done_ = 0;
+  bool drawn_ = false;
+};
+
+// Adds --quiet and --threads, shared by the commands that run long work.
+void add_quiet(CLI::App* sub, bool& quiet);
+void add_threads(CLI::App* sub, int& threads);
 
 // Subcommands: each adds itself to `app` and returns the runner to call once parsing chose it.
 struct Command {

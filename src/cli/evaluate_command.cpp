@@ -1,11 +1,12 @@
-// align3d evaluate [OUTDIR]: success rates from random poses and the convergence basin (issue #4).
+// align3d evaluate [OUTDIR]: success rates from random poses and the convergence basin
+// (evaluate.hpp).
 #include <chrono>
 #include <iomanip>
 #include <sstream>
 
 #include "align3d/error.hpp"
+#include "align3d/evaluate.hpp"
 #include "align3d/io/atomic_file.hpp"
-#include "align3d/report/evaluation.hpp"
 #include "align3d/report/figure.hpp"
 #include "common.hpp"
 
@@ -17,17 +18,92 @@ struct EvaluateOptions {
   int trials = 100;
   int cell_trials = 4;
   std::uint64_t seed = 1;
-  bool quick = false;
+  bool quick = false, quiet = false;
+  int threads = 0;
 };
 
-constexpr report::EvalMethod kMethods[] = {report::EvalMethod::kPointToPoint,
-                                           report::EvalMethod::kPointToPlane,
-                                           report::EvalMethod::kGlobal};
+constexpr EvalMethod kMethods[] = {EvalMethod::kPointToPoint, EvalMethod::kPointToPlane,
+                                   EvalMethod::kGlobal, EvalMethod::kAuto};
 
 std::string percent(double x) {
   std::ostringstream s;
   s << std::fixed << std::setprecision(x == 1.0 || x == 0.0 ? 0 : 1) << 100 * x << " %";
   return s.str();
+}
+
+// Success from random poses: one row per scene and method, into the markdown and the JSON.
+void success_table(const EvaluateOptions& o, int trials, const std::vector<EvalScene>& scenes,
+                   Streams io, std::ostringstream& md, nlohmann::json& json) {
+  md << "## Success from random initial poses\n\n"
+     << trials
+     << " seeded trials per row: rotation uniform in [0°, 180°] about a uniform random axis, "
+        "translation uniform in [0, ½ diagonal] in a uniform random direction. Success: rotation "
+        "error < 1° and translation error < 0.5 % of the model's bounding-box diagonal.\n\n"
+        "| scene | method | successes | rate | median time (ms) |\n|---|---|---:|---:|---:|\n";
+  json["success"] = nlohmann::json::array();
+  ProgressLine progress(io.err, o.quiet, "");
+  for (const auto& scene : scenes)
+    for (const auto method : kMethods) {
+      const std::string name = scene.name + ", " + to_string(method);
+      progress.set_label("success rate: " + name);
+      const SuccessRow row =
+          success_rate(scene, method, trials, o.seed, o.threads, progress.callback());
+      if (!o.quiet)
+        io.out << "success rate: " << name << ": " << row.successes << "/" << trials << "\n";
+      const double rate = static_cast<double>(row.successes) / std::max(1, row.trials);
+      md << "| " << row.scene << " | " << to_string(method) << " | " << row.successes << "/"
+         << row.trials << " | " << percent(rate) << " | " << std::fixed << std::setprecision(0)
+         << row.median_time_ms << " |\n";
+      json["success"].push_back({{"scene", row.scene},
+                                 {"method", to_string(method)},
+                                 {"trials", row.trials},
+                                 {"successes", row.successes},
+                                 {"median_time_ms", row.median_time_ms}});
+    }
+}
+
+report::HeatMap heat_map(EvalMethod method, const Basin& b) {
+  report::HeatMap h;
+  h.title = to_string(method);
+  h.x_label = "initial rotation (deg)";
+  h.y_label = "initial translation (× diagonal)";
+  h.value_label = "success rate";
+  for (double a : b.angles_deg) h.x_ticks.push_back(std::to_string(static_cast<int>(a)));
+  for (double f : b.translation_fractions) {
+    std::ostringstream s;
+    s << f;
+    h.y_ticks.push_back(s.str());
+  }
+  h.values = b.success;
+  return h;
+}
+
+void basin_markdown(EvalMethod method, const Basin& b, std::ostringstream& md) {
+  md << std::defaultfloat << std::setprecision(6) << "\n"
+     << to_string(method) << "\n\n| translation \\ rotation |";
+  for (double a : b.angles_deg) md << " " << a << "° |";
+  md << "\n|---|";
+  for (std::size_t i = 0; i < b.angles_deg.size(); ++i) md << "---:|";
+  md << "\n";
+  for (Eigen::Index r = b.success.rows() - 1; r >= 0; --r) {
+    md << "| " << b.translation_fractions[static_cast<std::size_t>(r)] << " |";
+    for (Eigen::Index c = 0; c < b.success.cols(); ++c)
+      md << " " << percent(b.success(r, c)) << " |";
+    md << "\n";
+  }
+}
+
+nlohmann::json basin_json(EvalMethod method, const Basin& b) {
+  nlohmann::json rows = nlohmann::json::array();
+  for (Eigen::Index r = 0; r < b.success.rows(); ++r) {
+    nlohmann::json row = nlohmann::json::array();
+    for (Eigen::Index c = 0; c < b.success.cols(); ++c) row.push_back(b.success(r, c));
+    rows.push_back(row);
+  }
+  return {{"method", to_string(method)},
+          {"angles_deg", b.angles_deg},
+          {"translation_fractions", b.translation_fractions},
+          {"success", rows}};
 }
 
 int run_evaluate(const EvaluateOptions& o, Streams io) {
@@ -43,32 +119,10 @@ int run_evaluate(const EvaluateOptions& o, Streams io) {
   std::filesystem::create_directories(o.outdir, ec);
   if (ec) throw OutputError(o.outdir + ": cannot create directory: " + ec.message());
 
-  const auto scenes = report::evaluation_scenes();
+  const auto scenes = evaluation_scenes();
   std::ostringstream md;
-  md << "## Success from random initial poses\n\n"
-     << trials
-     << " seeded trials per row: rotation uniform in [0°, 180°] about a uniform random axis, "
-        "translation uniform in [0, ½ diagonal] in a uniform random direction. Success: rotation "
-        "error < 1° and translation error < 0.5 % of the model's bounding-box diagonal.\n\n"
-        "| scene | method | successes | rate | median time (ms) |\n|---|---|---:|---:|---:|\n";
-  nlohmann::json json = {
-      {"trials", trials}, {"seed", o.seed}, {"success", nlohmann::json::array()}};
-  for (const auto& scene : scenes)
-    for (const auto method : kMethods) {
-      io.out << "success rate: " << scene.name << ", " << report::to_string(method) << " ... "
-             << std::flush;
-      const report::SuccessRow row = report::success_rate(scene, method, trials, o.seed);
-      const double rate = static_cast<double>(row.successes) / std::max(1, row.trials);
-      io.out << row.successes << "/" << row.trials << "\n";
-      md << "| " << row.scene << " | " << report::to_string(method) << " | " << row.successes << "/"
-         << row.trials << " | " << percent(rate) << " | " << std::fixed << std::setprecision(0)
-         << row.median_time_ms << " |\n";
-      json["success"].push_back({{"scene", row.scene},
-                                 {"method", report::to_string(method)},
-                                 {"trials", row.trials},
-                                 {"successes", row.successes},
-                                 {"median_time_ms", row.median_time_ms}});
-    }
+  nlohmann::json json = {{"trials", trials}, {"seed", o.seed}};
+  success_table(o, trials, scenes, io, md, json);
 
   // The basin on the chapter scene, one panel per method.
   std::vector<report::HeatMap> panels;
@@ -76,59 +130,26 @@ int run_evaluate(const EvaluateOptions& o, Streams io) {
         "translation magnitude (fraction of the diagonal), "
      << cell_trials << " trials per cell with random axes and directions.\n";
   json["basin"] = nlohmann::json::array();
+  ProgressLine progress(io.err, o.quiet, "");
   for (const auto method : kMethods) {
-    io.out << "basin: " << report::to_string(method) << " ... " << std::flush;
-    const report::Basin b =
-        report::convergence_basin(scenes.front(), method, angles, shifts, cell_trials, o.seed);
-    io.out << "done\n";
-    report::HeatMap h;
-    h.title = report::to_string(method);
-    h.x_label = "initial rotation (deg)";
-    h.y_label = "initial translation (× diagonal)";
-    h.value_label = "success rate";
-    for (double a : angles) h.x_ticks.push_back(std::to_string(static_cast<int>(a)));
-    for (double f : shifts) {
-      std::ostringstream s;
-      s << f;
-      h.y_ticks.push_back(s.str());
-    }
-    h.values = b.success;
-    panels.push_back(h);
-    md << std::defaultfloat << std::setprecision(6) << "\n"
-       << report::to_string(method) << "\n\n| translation \\ rotation |";
-    for (double a : angles) md << " " << a << "° |";
-    md << "\n|---|";
-    for (std::size_t i = 0; i < angles.size(); ++i) md << "---:|";
-    md << "\n";
-    for (Eigen::Index r = b.success.rows() - 1; r >= 0; --r) {
-      md << "| " << shifts[static_cast<std::size_t>(r)] << " |";
-      for (Eigen::Index c = 0; c < b.success.cols(); ++c)
-        md << " " << percent(b.success(r, c)) << " |";
-      md << "\n";
-    }
-    json["basin"].push_back({{"method", report::to_string(method)},
-                             {"angles_deg", angles},
-                             {"translation_fractions", shifts},
-                             {"success", [&] {
-                                nlohmann::json rows = nlohmann::json::array();
-                                for (Eigen::Index r = 0; r < b.success.rows(); ++r) {
-                                  nlohmann::json row = nlohmann::json::array();
-                                  for (Eigen::Index c = 0; c < b.success.cols(); ++c)
-                                    row.push_back(b.success(r, c));
-                                  rows.push_back(row);
-                                }
-                                return rows;
-                              }()}});
+    progress.set_label(std::string("basin: ") + to_string(method));
+    const Basin b = convergence_basin(scenes.front(), method, angles, shifts, cell_trials, o.seed,
+                                      o.threads, progress.callback());
+    if (!o.quiet) io.out << "basin: " << to_string(method) << ": done\n";
+    panels.push_back(heat_map(method, b));
+    basin_markdown(method, b, md);
+    json["basin"].push_back(basin_json(method, b));
   }
   const std::filesystem::path dir(o.outdir);
   report::write_heatmaps(panels, "Convergence basin on the chapter scene", dir / "basin");
   io::write_text_atomically(dir / "evaluation.md", md.str());
   io::write_text_atomically(dir / "evaluation.json", json.dump(2) + "\n");
-  io.out << "\n"
-         << md.str() << "\nwrote " << o.outdir
-         << "/{evaluation.md,evaluation.json,basin.svg,basin.png} in "
-         << std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()
-         << " s\n";
+  if (!o.quiet)
+    io.out << "\n"
+           << md.str() << "\nwrote " << o.outdir
+           << "/{evaluation.md,evaluation.json,basin.svg,basin.png} in "
+           << std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()
+           << " s\n";
   return 0;
 }
 
@@ -139,9 +160,9 @@ Command add_evaluate(CLI::App& app, Streams io) {
   CLI::App* sub = app.add_subcommand(
       "evaluate",
       "Measure registration from arbitrary starting poses on the chapter scene and two object "
-      "views:\n"
-      "success rates of ICP alone and of global + ICP, and the convergence basin (heat map).\n"
-      "The full run takes several minutes; --quick is a smoke test.");
+      "views: success rates of ICP alone, of global + ICP and of the default (init auto), and the "
+      "convergence basin (heat map).\n"
+      "The full run takes several minutes (progress on a terminal); --quick is a smoke test.");
   sub->add_option("OUTDIR", o->outdir, "Output directory")->capture_default_str();
   sub->add_option("--trials", o->trials, "Random poses per scene and method")
       ->check(CLI::Range(1, 100000))
@@ -151,6 +172,8 @@ Command add_evaluate(CLI::App& app, Streams io) {
       ->capture_default_str();
   sub->add_option("--seed", o->seed, "Seed of the random poses")->capture_default_str();
   sub->add_flag("--quick", o->quick, "3 trials and a 2×2 basin: checks the machinery only");
+  add_threads(sub, o->threads);
+  add_quiet(sub, o->quiet);
   return {sub, [o, io] { return run_evaluate(*o, io); }};
 }
 

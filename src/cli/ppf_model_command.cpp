@@ -1,5 +1,6 @@
 // align3d ppf-model MODEL OUT: build the PPF model description once, for many scans.
 #include "align3d/coarse/ppf.hpp"
+#include "align3d/error.hpp"
 #include "common.hpp"
 
 namespace align3d::cli {
@@ -7,7 +8,7 @@ namespace {
 
 struct PpfModelOptions {
   std::string model, out;
-  double voxel = 0;
+  double voxel = GlobalSettings{}.voxel;
 };
 
 }  // namespace
@@ -17,20 +18,27 @@ Command add_ppf_model(CLI::App& app, Streams io) {
   CLI::App* sub = app.add_subcommand(
       "ppf-model",
       "Build the point-pair-feature description of MODEL and save it to OUT, for\n"
-      "`align3d register SCAN MODEL --init global --global ppf --ppf-model OUT` on many scans.");
+      "`align3d register SCAN MODEL --ppf-model OUT` on many scans (MODEL is their target).");
   sub->add_option("MODEL", o->model, "Model cloud (the target of later registrations)")->required();
   sub->add_option("OUT", o->out, "Output file for the model description")->required();
-  sub->add_option("--voxel", o->voxel, "Voxel size (data units); 0: the model's diagonal / 50")
+  sub->add_option("--voxel", o->voxel,
+                  "Voxel size (data units); 0: the model's extent / 50 (its bulk: 0.5-99.5 "
+                  "percentiles), as register's global stage uses")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   return {sub, [o, io] {
             const PointCloud model = load_cloud(o->model, io.err);
             GlobalSettings gs;
             gs.voxel = o->voxel;
-            const PpfModel description = build_ppf_model(model, global_voxel(model, gs));
+            PpfModel description;
+            try {
+              description = build_ppf_model(model, global_voxel(model, model, gs));
+            } catch (const DataError& e) {
+              throw DataError(o->model, e.problem());
+            }
             save_ppf_model(o->out, description);
             io.out << "wrote " << o->out << " (PPF model of " << o->model << ", voxel "
-                   << global_voxel(model, gs) << ")\n";
+                   << description.voxel << ", " << description.points.size() << " points)\n";
             return 0;
           }};
 }

@@ -15,8 +15,8 @@
 
 #include "align3d/coarse/voxel.hpp"
 #include "align3d/error.hpp"
+#include "align3d/icp/icp.hpp"
 #include "align3d/io/atomic_file.hpp"
-#include "align3d/kabsch.hpp"
 #include "align3d/kdtree.hpp"
 #include "align3d/normals.hpp"
 #include "align3d/se3.hpp"
@@ -42,26 +42,26 @@ constexpr double kOverlapVoxels = 1.5;
 constexpr double kFitPlaneVoxels = 0.25;
 constexpr double kFitNormalDeg = 20;
 
-// Throws DataError unless `down` has enough points, not all on one line.
-void check_usable(const PointCloud& down, const char* what) {
+// Throws DataError(what, …) unless `down` has enough points, not all on one line.
+void check_usable(const PointCloud& down, const std::string& what, double voxel) {
+  const std::string after = " after downsampling to voxel " + std::to_string(voxel);
   if (down.size() < kMinPoints)
-    throw DataError(std::string("ppf: the ") + what + " has " + std::to_string(down.size()) +
-                    " points after downsampling; at least " + std::to_string(kMinPoints) +
-                    " are needed");
+    throw DataError(what, std::to_string(down.size()) + " points" + after +
+                              "; ppf needs at least " + std::to_string(kMinPoints) +
+                              " (a smaller voxel keeps more)");
   const Eigen::Vector3d c = centroid(down);
   Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
   for (const auto& p : down.positions) cov.noalias() += (p - c) * (p - c).transpose();
   const Eigen::Vector3d ev = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(cov).eigenvalues();
-  if (!(ev(1) > 1e-9 * ev(2)))
-    throw DataError(std::string("ppf: all points of the ") + what + " lie on a line");
+  if (!(ev(1) > 1e-9 * ev(2))) throw DataError(what, "all points lie on a line" + after);
 }
 
 // Voxel centroids with PCA normals turned away from the centroid (the header's orientation rule).
 PointCloud oriented_downsample(const PointCloud& cloud, double voxel, int threads,
-                               const char* what) {
+                               const std::string& what) {
   PointCloud down = voxel_downsample(cloud, voxel);
   down.normals.clear();
-  check_usable(down, what);
+  check_usable(down, what, voxel);
   NormalSettings normal_settings;
   normal_settings.k = kNormalNeighbours;
   normal_settings.viewpoint = centroid(down);
@@ -90,15 +90,8 @@ bool feature_key(const Eigen::Vector3d& p1, const Eigen::Vector3d& n1, const Eig
 
 // T_g: the rigid move taking (p, n) to the origin and the +x axis (Drost, section 3.3).
 Eigen::Isometry3d to_x_axis(const Eigen::Vector3d& p, const Eigen::Vector3d& n) {
-  // The shortest-arc rotation about n × x̂; for n = −x̂ a half turn about ŷ.
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  const Eigen::Vector3d axis = n.cross(Eigen::Vector3d::UnitX());
-  const double sin_angle = axis.norm(), cos_angle = n.x();
-  if (sin_angle > 1e-12)
-    T.linear() =
-        Eigen::AngleAxisd(std::atan2(sin_angle, cos_angle), axis / sin_angle).toRotationMatrix();
-  else if (cos_angle < 0)
-    T.linear() = Eigen::AngleAxisd(kPi, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  T.linear() = shortest_arc(n, Eigen::Vector3d::UnitX());  // a half turn about ŷ for n = −x̂
   T.translation() = -(T.linear() * p);
   return T;
 }
@@ -127,27 +120,16 @@ struct Cluster {
   double votes = 0;
 };
 
-// Point-to-point ICP on the downsampled clouds (pairs closer than 2 voxels), about the target
-// centroid as kabsch.hpp advises. Deterministic: the sums go through parallel_reduce.
+// Point-to-point ICP (icp/icp.hpp) on the downsampled clouds, pairs closer than 2 voxels, until
+// an update turns by less than 1e-7 rad and moves by less than 1e-7 voxel.
 Eigen::Isometry3d refine(const PointCloud& source, const PointCloud& target, const KdTree& tree,
-                         Eigen::Isometry3d T, double voxel, int iterations, int threads) {
-  const double sq_cutoff = (kClusterVoxels * voxel) * (kClusterVoxels * voxel);
-  const Eigen::Vector3d c = centroid(target);
-  for (int it = 0; it < iterations; ++it) {
-    const KabschAccumulator acc = parallel_reduce(
-        source.size(), threads, KabschAccumulator{},
-        [&](KabschAccumulator& a, std::size_t i) {
-          const Eigen::Vector3d p = T * source.positions[i];
-          Neighbor nb;
-          if (tree.nearest(p, nb, sq_cutoff)) a.add(p - c, target.positions[nb.index] - c);
-        },
-        [](KabschAccumulator& a, const KabschAccumulator& b) { a += b; });
-    if (acc.sum_w < 3) break;
-    const Eigen::Isometry3d D = solve_kabsch(acc);
-    T = Eigen::Translation3d(c) * D * Eigen::Translation3d(-c) * T;
-    if (rotation_angle(D.linear()) < 1e-7 && D.translation().norm() < 1e-7 * voxel) break;
-  }
-  return T;
+                         const Eigen::Isometry3d& T, double voxel, int iterations, int threads) {
+  IcpSettings s;
+  s.method = IcpMethod::kPointToPoint;
+  s.rejection = RejectionRule::max_distance(kClusterVoxels * voxel);
+  s.termination = {iterations, 0.0, false, 1e-7, 1e-7 * voxel / bounding_box_diagonal(target)};
+  s.threads = threads;
+  return icp(source, target, tree, T, s).T_target_source;
 }
 
 // The share of `source` points that T lays onto the target surface: a target point within 1.5
@@ -411,13 +393,16 @@ GlobalResult ppf_match(const PpfModel& model, const PointCloud& scene,
       refine(down, model.points, model_tree, poses[best], voxel, kFinalIterations, threads);
   fits[best] = fit_fraction(down, model.points, model_tree, poses[best], voxel, threads);
   result.T_target_source = poses[best];
-  result.overlap = overlap_fraction(down, model_tree, poses[best], kOverlapVoxels * voxel, threads);
-  result.score = clusters[best].votes;
+  // The model is the object: the overlap is the share of its points the scene explains.
+  result.overlap = overlap_fraction(model.points, scene_tree, poses[best].inverse(),
+                                    kOverlapVoxels * voxel, threads);
+  result.score = fits[best];
+  result.votes = clusters[best].votes;
   result.candidates = verified;
   result.success = result.overlap >= settings.min_overlap;
   if (!result.success)
-    result.message = "ppf: the best pose brings only " + percent(result.overlap) +
-                     " of the scene within 1.5 voxels of the model (minimum " +
+    result.message = "ppf: the best pose explains only " + percent(result.overlap) +
+                     " of the model's points within 1.5 voxels (minimum " +
                      percent(settings.min_overlap) + ")";
 
   // Ambiguity (coarse/global.hpp): the best-fitting distinct runner-up, compared by fit_fraction.
@@ -433,8 +418,8 @@ GlobalResult ppf_match(const PpfModel& model, const PointCloud& scene,
   if (result.success && second < verified &&
       fits[second] >= settings.ambiguity_ratio * fits[best]) {
     result.ambiguous = true;
-    result.second_T = poses[second];
-    result.second_score = clusters[second].votes;
+    result.second_T_target_source = poses[second];
+    result.second_score = fits[second];
     const std::string note = "ppf: ambiguous: a distinct pose fits " + percent(fits[second]) +
                              " of the scene to the model surface against " + percent(fits[best]) +
                              " (a symmetric part?)";
@@ -448,8 +433,37 @@ GlobalResult ppf_match(const PpfModel& model, const PointCloud& scene,
 GlobalResult ppf_register(const PointCloud& source, const PointCloud& target,
                           const GlobalSettings& settings) {
   const auto start = std::chrono::steady_clock::now();
-  const PpfModel model = build_ppf_model(target, global_voxel(target, settings), settings.threads);
-  GlobalResult result = ppf_match(model, source, settings);
+  // The model description is built from the object (global.hpp), the other cloud is the scene.
+  const Role object = object_role(source, target);
+  const bool source_is_object = object == Role::kSource;
+  const double voxel = global_voxel(source, target, settings);
+  if (!(voxel > 0) || !std::isfinite(voxel))
+    throw DataError(to_string(object),
+                    "all points are at one spot (no length scale for the voxel)");
+  const auto role_named = [](const char* role, auto&& step) {
+    try {
+      return step();
+    } catch (const DataError& e) {
+      throw DataError(role, e.problem());
+    }
+  };
+  const PpfModel model = role_named(to_string(object), [&] {
+    return build_ppf_model(source_is_object ? source : target, voxel, settings.threads);
+  });
+  GlobalResult result = role_named(source_is_object ? "target" : "source", [&] {
+    return ppf_match(model, source_is_object ? target : source, settings);
+  });
+  result.object = object;
+  if (source_is_object) {  // ppf_match mapped the target (scene) into the source (model)
+    result.T_target_source = result.T_target_source.inverse();
+    result.second_T_target_source = result.second_T_target_source.inverse();
+  }
+  if (model.voxel > voxel * (1 + 1e-9)) {
+    const std::string note = "ppf: the voxel was enlarged from " + std::to_string(voxel) + " to " +
+                             std::to_string(model.voxel) + " to keep the model at " +
+                             std::to_string(kMaxModelPoints) + " points or fewer";
+    result.message = result.message.empty() ? note : result.message + "; " + note;
+  }
   result.time_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   return result;

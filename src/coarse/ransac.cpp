@@ -20,13 +20,13 @@
 #include <string>
 #include <vector>
 
+#include "align3d/cloud_stats.hpp"
 #include "align3d/coarse/fpfh.hpp"
 #include "align3d/coarse/voxel.hpp"
 #include "align3d/error.hpp"
 #include "align3d/kabsch.hpp"
 #include "align3d/kdtree.hpp"
 #include "align3d/normals.hpp"
-#include "align3d/registration.hpp"
 #include "align3d/se3.hpp"
 #include "detail/parallel.hpp"
 #include "detail/random.hpp"
@@ -67,6 +67,12 @@ struct Prepared {
   std::vector<FpfhDescriptor> features;
 };
 
+std::string fixed(double value, int digits = 2) {
+  char buffer[64];
+  std::snprintf(buffer, sizeof buffer, "%.*f", digits, value);
+  return buffer;
+}
+
 // Drops points with fewer than kMinSupport others within kSupportRadius spacings (the spacing: the
 // voxel, or the median neighbour distance when the data are sparser). Downsampling keeps an
 // isolated outlier as one point while it thins the surfaces, so outliers gain weight; inside a
@@ -90,11 +96,16 @@ Prepared prepare(const PointCloud& cloud, double voxel, const char* what, int th
   Prepared out;
   out.all = voxel_downsample(cloud, voxel);
   out.down = drop_isolated(out.all, voxel, threads);
+  const std::string after = " after downsampling to voxel " + fixed(voxel, 4) +
+                            " and dropping isolated points; FPFH registration needs at least 10 "
+                            "(a smaller voxel keeps more)";
   if (out.down.size() < 10)
-    throw DataError(std::string(what) + ": " + std::to_string(out.down.size()) +
-                    " points after downsampling to voxel " + std::to_string(voxel) +
-                    " and dropping isolated points" + "; FPFH registration needs at least 10");
-  check_registrable(out.down, std::string(what) + " (downsampled)");
+    throw DataError(what, std::to_string(out.down.size()) + " points" + after);
+  try {
+    check_registrable(out.down, what);
+  } catch (const DataError& e) {
+    throw DataError(what, e.problem() + after);
+  }
   out.tree = std::make_unique<KdTree>(out.down.positions, threads);
   NormalSettings ns;
   ns.k = kNormalNeighbours;
@@ -284,10 +295,38 @@ void remember(std::vector<Pose>& poses, const Pose& pose, const Distinct& distin
   if (poses.size() > kMaxPoses) poses.pop_back();
 }
 
-std::string fixed(double value, int digits = 2) {
-  char buffer[64];
-  std::snprintf(buffer, sizeof buffer, "%.*f", digits, value);
-  return buffer;
+// Step 5: RANSAC in blocks; the confidence bound k = log(1 − conf) / log(1 − w³) is checked
+// between blocks, w the best inlier share so far. Returns the best pose of each distinct region
+// (remember), counts the accepted hypotheses in `candidates` and the drawn ones in `drawn`.
+std::vector<Pose> ransac(const Correspondences& corr, const GlobalSettings& settings, double voxel,
+                         const Distinct& distinct, std::size_t& candidates, std::uint64_t& drawn) {
+  const double sq_radius = (kInlierDistance * voxel) * (kInlierDistance * voxel);
+  const auto max_iterations = static_cast<std::uint64_t>(std::max(0, settings.ransac_iterations));
+  std::uint64_t needed = max_iterations;
+  std::vector<Pose> poses;
+  std::vector<Pose> block(kBlock);
+  std::vector<unsigned char> accepted(kBlock);
+  while (drawn < needed) {
+    const std::size_t count =
+        static_cast<std::size_t>(std::min<std::uint64_t>(kBlock, needed - drawn));
+    parallel_for(count, settings.threads, [&](std::size_t i) {
+      accepted[i] = evaluate(corr, settings.seed, drawn + i, voxel, sq_radius, block[i]);
+    });
+    for (std::size_t i = 0; i < count; ++i) {
+      if (!accepted[i]) continue;
+      ++candidates;
+      remember(poses, block[i], distinct);
+    }
+    drawn += count;
+    if (!poses.empty()) {
+      const double w = static_cast<double>(poses.front().score) / static_cast<double>(corr.size());
+      const double w3 = w * w * w;
+      const double k = w3 >= 1 ? 0.0 : std::log(1 - settings.ransac_confidence) / std::log1p(-w3);
+      if (k < static_cast<double>(needed))
+        needed = std::max(drawn, static_cast<std::uint64_t>(std::ceil(k)));
+    }
+  }
+  return poses;
 }
 
 }  // namespace
@@ -297,19 +336,30 @@ GlobalResult fpfh_ransac_register(const PointCloud& source, const PointCloud& ta
   const auto start = std::chrono::steady_clock::now();
   GlobalResult result;
   result.method = GlobalMethod::kFpfh;
-  if (target.size() < 10 || source.size() < 10)
-    throw DataError(std::string(target.size() < 10 ? "target" : "source") + ": " +
-                    std::to_string(std::min(target.size(), source.size())) +
-                    " points; FPFH registration needs at least 10");
-  const double voxel = global_voxel(target, settings);
+  for (const auto& [cloud, role] :
+       {std::pair{&source, Role::kSource}, std::pair{&target, Role::kTarget}})
+    if (cloud->size() < 10)
+      throw DataError(to_string(role), std::to_string(cloud->size()) +
+                                           " points; FPFH registration needs at least 10");
+  const double voxel = global_voxel(source, target, settings);
+  result.object = object_role(source, target);
   if (!(voxel > 0) || !std::isfinite(voxel))
-    throw DataError("target: all points are at one spot (no length scale for the voxel)");
+    throw DataError(to_string(result.object),
+                    "all points are at one spot (no length scale for the voxel)");
   result.voxel = voxel;
   const int threads = settings.threads;
 
   // Steps 1-3: downsample, normals, descriptors.
   const Prepared src = prepare(source, voxel, "source", threads);
   const Prepared tgt = prepare(target, voxel, "target", threads);
+  // The overlap is a share of the object's points (global.hpp): the source's within reach of the
+  // target, or the target's within reach of the moved source.
+  const double reach = kInlierDistance * voxel;
+  const auto object_overlap = [&](const Eigen::Isometry3d& T) {
+    return result.object == Role::kSource
+               ? overlap_fraction(src.all, *tgt.tree, T, reach, threads)
+               : overlap_fraction(tgt.all, *src.tree, T.inverse(), reach, threads);
+  };
   // Step 4: descriptor nearest neighbours.
   const Correspondences corr = match(src, tgt, settings.mutual_filter, threads);
 
@@ -327,33 +377,9 @@ GlobalResult fpfh_ransac_register(const PointCloud& source, const PointCloud& ta
     return finish(result);
   }
 
-  // Step 5: RANSAC in blocks; the confidence bound k = log(1 − conf) / log(1 − w³) is checked
-  // between blocks, w the best inlier share so far.
-  const auto max_iterations = static_cast<std::uint64_t>(std::max(0, settings.ransac_iterations));
-  std::uint64_t needed = max_iterations, drawn = 0;
-  std::vector<Pose> poses;
-  std::vector<Pose> block(kBlock);
-  std::vector<unsigned char> accepted(kBlock);
-  while (drawn < needed) {
-    const std::size_t count =
-        static_cast<std::size_t>(std::min<std::uint64_t>(kBlock, needed - drawn));
-    parallel_for(count, threads, [&](std::size_t i) {
-      accepted[i] = evaluate(corr, settings.seed, drawn + i, voxel, sq_radius, block[i]);
-    });
-    for (std::size_t i = 0; i < count; ++i) {
-      if (!accepted[i]) continue;
-      ++result.candidates;
-      remember(poses, block[i], distinct);
-    }
-    drawn += count;
-    if (!poses.empty()) {
-      const double w = static_cast<double>(poses.front().score) / static_cast<double>(corr.size());
-      const double w3 = w * w * w;
-      const double k = w3 >= 1 ? 0.0 : std::log(1 - settings.ransac_confidence) / std::log1p(-w3);
-      if (k < static_cast<double>(needed))
-        needed = std::max(drawn, static_cast<std::uint64_t>(std::ceil(k)));
-    }
-  }
+  // Step 5: RANSAC.
+  std::uint64_t drawn = 0;
+  std::vector<Pose> poses = ransac(corr, settings, voxel, distinct, result.candidates, drawn);
   if (poses.empty()) {
     result.message = "no pose with enough support: none of " + std::to_string(drawn) +
                      " hypotheses passed the consistency checks";
@@ -367,7 +393,7 @@ GlobalResult fpfh_ransac_register(const PointCloud& source, const PointCloud& ta
   const Pose best = poses.front();
   result.T_target_source = best.T;
   result.score = static_cast<double>(best.score);
-  result.overlap = overlap_fraction(src.all, *tgt.tree, best.T, kInlierDistance * voxel, threads);
+  result.overlap = object_overlap(best.T);
 
   // Step 7: success.
   if (result.overlap < settings.min_overlap) {
@@ -392,12 +418,11 @@ GlobalResult fpfh_ransac_register(const PointCloud& source, const PointCloud& ta
     if (!distinct(poses[i].T, best.T)) continue;  // refinement joined the winner
     const Pose& second = poses[i];
     const std::size_t own = count_exclusive(corr, second.T, best.T, sq_radius);
-    const double overlap =
-        overlap_fraction(src.all, *tgt.tree, second.T, kInlierDistance * voxel, threads);
+    const double overlap = object_overlap(second.T);
     if (overlap >= settings.ambiguity_ratio * result.overlap &&
         static_cast<double>(own) >= kTwinSupport * result.score && own >= kMinInliers) {
       result.ambiguous = true;
-      result.second_T = second.T;
+      result.second_T_target_source = second.T;
       result.second_score = static_cast<double>(second.score);
       const double angle =
           rad_to_deg(rotation_angle(best.T.linear().transpose() * second.T.linear()));

@@ -5,6 +5,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "align3d/icp/correspondences.hpp"
+
 namespace align3d {
 
 double rejection_threshold(const RejectionRule& rule, std::vector<double>& distances) {
@@ -13,6 +15,9 @@ double rejection_threshold(const RejectionRule& rule, std::vector<double>& dista
       return rule.distance;
     case RejectionRule::Kind::kNone:
       return std::numeric_limits<double>::infinity();
+    case RejectionRule::Kind::kAuto:
+      throw std::invalid_argument(
+          "rejection 'auto' is a schedule (icp/refine.hpp), not a threshold");
     case RejectionRule::Kind::kMedian: {
       if (distances.empty()) return rule.floor;
       // The chapter's sorted[size / 2]: the upper median.
@@ -22,6 +27,15 @@ double rejection_threshold(const RejectionRule& rule, std::vector<double>& dista
     }
   }
   return 0.0;
+}
+
+double rejection_threshold(const RejectionRule& rule, const Correspondences& pairs) {
+  thread_local std::vector<double> found;
+  found.clear();
+  if (rule.kind == RejectionRule::Kind::kMedian)
+    for (double d : pairs.distance)
+      if (std::isfinite(d)) found.push_back(d);
+  return rejection_threshold(rule, found);
 }
 
 namespace {
@@ -48,6 +62,7 @@ RejectionRule parse_rejection_rule(const std::string& text) {
   for (std::string part; std::getline(ss, part, ':');) parts.push_back(part);
   if (parts.empty()) throw std::invalid_argument("empty rejection rule");
   const std::string& kind = parts[0];
+  if (kind == "auto" && parts.size() == 1) return RejectionRule::automatic();
   if (kind == "none" && parts.size() == 1) return RejectionRule::none();
   if (kind == "distance" && parts.size() == 2)
     return RejectionRule::max_distance(parse_positive(parts[1], "distance D", false));
@@ -72,6 +87,9 @@ std::string to_string(const RejectionRule& rule) {
       break;
     case RejectionRule::Kind::kNone:
       out << "none";
+      break;
+    case RejectionRule::Kind::kAuto:
+      out << "auto";
       break;
   }
   return out.str();

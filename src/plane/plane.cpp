@@ -82,7 +82,8 @@ RansacPlaneResult ransac_plane(const std::vector<Eigen::Vector3d>& points,
       best = candidate;
     }
   }
-  if (best_count < 3) throw DataError("no plane found: the points are collinear or too few");
+  if (best_count < 3)
+    throw DataError("all points lie on one line: no plane (no 3-point sample spanned one)");
   // A blob, a sphere or scattered points: any slab holds a small share of them.
   if (static_cast<double>(best_count) < kMinPlaneShare * static_cast<double>(n)) {
     std::ostringstream msg;

@@ -4,22 +4,18 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <sstream>
+#include <stdexcept>
 
+#include "align3d/cloud_stats.hpp"
 #include "align3d/error.hpp"
+#include "align3d/kdtree.hpp"
 #include "align3d/se3.hpp"
 
 namespace align3d {
 
-Eigen::Matrix3d rotation_to_z(const Eigen::Vector3d& n_in) {
-  const Eigen::Vector3d n = n_in.normalized();
-  const Eigen::Vector3d z = Eigen::Vector3d::UnitZ();
-  const Eigen::Vector3d axis = n.cross(z);
-  const double s = axis.norm(), c = n.dot(z);
-  if (s < 1e-12) {
-    if (c > 0) return Eigen::Matrix3d::Identity();
-    return Eigen::AngleAxisd(3.14159265358979323846, Eigen::Vector3d::UnitX()).toRotationMatrix();
-  }
-  return Eigen::AngleAxisd(std::atan2(s, c), axis / s).toRotationMatrix();
+Eigen::Matrix3d rotation_to_z(const Eigen::Vector3d& n) {
+  return shortest_arc(n, Eigen::Vector3d::UnitZ());
 }
 
 namespace {
@@ -74,6 +70,22 @@ double part_side(const std::vector<Eigen::Vector3d>& points, const Plane& plane,
   return above > below ? 1.0 : -1.0;
 }
 
+// The not_flat warning (rectify.hpp): the inliers' RMS against the cloud's own surface noise.
+void check_flatness(const PointCloud& cloud, bool robust, RectifyResult& out) {
+  const KdTree tree(cloud.positions);
+  out.noise = surface_noise(cloud, tree);
+  const double floor = std::max(out.noise, 0.05 * point_spacing(cloud, tree));
+  if (!(out.rms > kMaxFlatnessNoise * floor)) return;
+  std::ostringstream m;
+  m.precision(3);
+  m << "the " << out.inliers << " points fitted lie " << out.rms << " (RMS) from the plane, "
+    << out.rms / floor << " x the surface noise " << floor
+    << ": they do not lie on one plane, so the tilt is not to be trusted"
+    << (robust ? " (a curved or stepped surface?)"
+               : " (parts or walls in the fit? the robust fit finds the dominant plane)");
+  out.warnings.push_back({"not_flat", m.str()});
+}
+
 }  // namespace
 
 RectifyResult rectify(const PointCloud& cloud, const RectifySettings& settings) {
@@ -91,7 +103,8 @@ RectifyResult rectify(const PointCloud& cloud, const RectifySettings& settings) 
   }
   double sign = 0;
   if (settings.up) {
-    if (!(settings.up->norm() > 0)) throw DataError("--up must be a non-zero vector");
+    if (!(settings.up->norm() > 0) || !settings.up->allFinite())
+      throw std::invalid_argument("rectify: `up` must be a finite non-zero vector");
     sign = plane.normal.dot(*settings.up) >= 0 ? 1.0 : -1.0;
   }
   if (sign == 0) sign = part_side(points, plane, inliers);
@@ -103,23 +116,26 @@ RectifyResult rectify(const PointCloud& cloud, const RectifySettings& settings) 
   out.inliers = inliers.size();
   out.tilt_before_deg = angle_to_z_deg(plane.normal);
   const Eigen::Matrix3d R = rotation_to_z(plane.normal);
-  out.transformation.linear() = R;
-  out.transformation.translation() = Eigen::Vector3d(0, 0, -(R * plane.point).z());
+  out.T_level_cloud.linear() = R;
+  out.T_level_cloud.translation() = Eigen::Vector3d(0, 0, -(R * plane.point).z());
 
   // Measure, don't assume: refit the moved inliers.
   std::vector<Eigen::Vector3d> moved;
   moved.reserve(inliers.size());
-  for (std::size_t i : inliers) moved.push_back(out.transformation * points[i]);
+  for (std::size_t i : inliers) moved.push_back(out.T_level_cloud * points[i]);
   Plane after = fit_plane(moved);
   if (after.normal.z() < 0) after.normal = -after.normal;
   out.tilt_after_deg = angle_to_z_deg(after.normal);
-  double lo = 0, hi = 0;
+  double lo = 0, hi = 0, sq = 0;
   for (std::size_t i : inliers) {
     const double d = plane.signed_distance(points[i]);
     lo = std::min(lo, d);
     hi = std::max(hi, d);
+    sq += d * d;
   }
   out.flatness = hi - lo;
+  out.rms = inliers.empty() ? 0.0 : std::sqrt(sq / static_cast<double>(inliers.size()));
+  check_flatness(cloud, settings.robust, out);
   return out;
 }
 

@@ -4,19 +4,27 @@
 //   fpfh: voxel-downsample both clouds, normals, FPFH descriptors (Rusu et al. 2009), descriptor
 //         nearest-neighbour correspondences, RANSAC with edge-length pre-rejection; parallel
 //         hypotheses, deterministic for a seed whatever the thread count.
-//   ppf:  point pair features (Drost et al. 2010): a hashed model description, voting over
-//         (model reference point, rotation angle), pose clustering (coarse/ppf.hpp).
+//   ppf:  point pair features (Drost et al. 2010): a hashed model description of the object,
+//         voting over (model reference point, rotation angle), pose clustering (coarse/ppf.hpp).
+//
+// Defaults follow the object, not the scene: of the two clouds, the one of smaller robust extent
+// (cloud_stats.hpp: the bulk of its points, not a few strays) is the object being found, whichever
+// role it has; the voxel is 1/50 of its extent, the feature radii are multiples of the voxel, and
+// the overlap requirement is a share of its points. So a 15 cm part is found in a 1.5 m
+// depth-camera scene with the sampling the part needs, and the same data in mm or m behave alike.
 //
 // Honest failure: `success` is false, with a reason, when no pose has enough support; the caller
 // must not hand such a pose to ICP as if it were right. `ambiguous` is set when a second, distinct
 // pose (rotation differing by more than `distinct_rotation_deg` or translation by more than 2
-// voxels) scores within `ambiguity_ratio` of the best (e.g. a symmetric part).
+// voxels) scores within `ambiguity_ratio` of the best (e.g. a symmetric part); the message gives
+// the two values that were compared.
 #pragma once
 
 #include <Eigen/Geometry>
 #include <cstdint>
 #include <string>
 
+#include "align3d/kdtree.hpp"
 #include "align3d/point_cloud.hpp"
 
 namespace align3d {
@@ -26,8 +34,8 @@ inline const char* to_string(GlobalMethod m) { return m == GlobalMethod::kFpfh ?
 
 struct GlobalSettings {
   GlobalMethod method = GlobalMethod::kFpfh;
-  // Voxel size for downsampling (data units); 0: derived from the data, L/50 with L the target's
-  // bounding-box diagonal (unit-free). Feature radii are multiples of it.
+  // Voxel size for downsampling both clouds (data units), for every method; 0: the object's
+  // robust extent / 50 (see above). Feature radii are multiples of it.
   double voxel = 0.0;
   std::uint64_t seed = 1;
   int threads = 0;  // 0: all cores; the result does not depend on it
@@ -35,38 +43,51 @@ struct GlobalSettings {
   bool mutual_filter = false;  // keep only mutual descriptor nearest neighbours
   int ransac_iterations = 100000;
   double ransac_confidence = 0.9999;
-  // Success: at the found pose at least this share of the downsampled source lies within
-  // 1.5 voxels of the target (and at least 3 × the minimal sample of inlier correspondences).
+  // Success: at the found pose at least this share of the object's downsampled points lies within
+  // 1.5 voxels of the other cloud (and, for fpfh, at least 3 × the minimal sample of inlier
+  // correspondences).
   double min_overlap = 0.15;
   // Ambiguity report (see above).
   double ambiguity_ratio = 0.9;
   double distinct_rotation_deg = 10.0;
 };
 
+// Which input is the object (see above).
+enum class Role { kSource, kTarget };
+inline const char* to_string(Role r) { return r == Role::kSource ? "source" : "target"; }
+
 struct GlobalResult {
   bool success = false;
   std::string message;  // why it failed, or a note; empty when nothing to say
   Eigen::Isometry3d T_target_source = Eigen::Isometry3d::Identity();  // target ≈ T·source
   GlobalMethod method = GlobalMethod::kFpfh;
-  double score = 0;            // fpfh: inlier correspondences of the best hypothesis; ppf: votes
-  double overlap = 0;          // share of the downsampled source within 1.5 voxels at the pose
+  Role object = Role::kTarget;  // the cloud the defaults followed
+  // The measure the winner was chosen by: fpfh, inlier correspondences of the best hypothesis;
+  // ppf, the share of the scene's downsampled points laid onto the model surface ("fit").
+  double score = 0;
+  double votes = 0;            // ppf: votes of the winning pose cluster (0 for fpfh)
+  double overlap = 0;          // share of the object's downsampled points the pose explains
   std::size_t candidates = 0;  // hypotheses (fpfh) or pose clusters (ppf) scored
   bool ambiguous = false;
-  Eigen::Isometry3d second_T = Eigen::Isometry3d::Identity();  // the runner-up when ambiguous
-  double second_score = 0;
-  double voxel = 0;  // voxel size used
+  Eigen::Isometry3d second_T_target_source = Eigen::Isometry3d::Identity();  // when ambiguous
+  double second_score = 0;  // the runner-up's value of the measure the ambiguity compared
+  double voxel = 0;         // voxel size used
   double time_ms = 0;
 };
 
-// Shared by the methods: the voxel size in use (settings.voxel, or L/50 of the target); and the
-// share of `source` points that T brings within `radius` of a target point (`tree` indexes target).
-double global_voxel(const PointCloud& target, const GlobalSettings& settings);
-class KdTree;
-double overlap_fraction(const PointCloud& source, const KdTree& tree, const Eigen::Isometry3d& T,
+// The object (the cloud of smaller robust extent) and the voxel in use: settings.voxel, or the
+// object's robust extent / 50.
+Role object_role(const PointCloud& source, const PointCloud& target);
+double global_voxel(const PointCloud& source, const PointCloud& target,
+                    const GlobalSettings& settings);
+
+// The share of `cloud` points that T brings within `radius` of a point of the cloud `tree`
+// indexes.
+double overlap_fraction(const PointCloud& cloud, const KdTree& tree, const Eigen::Isometry3d& T,
                         double radius, int threads = 0);
 
-// Runs the chosen method. Throws DataError when a cloud is too small or degenerate for descriptors
-// (fewer than 10 points after downsampling, or all points on a line).
+// Runs the chosen method. Throws DataError("source"/"target", …) when a cloud is too small or
+// degenerate for descriptors (fewer than 10 points after downsampling, or all points on a line).
 GlobalResult global_register(const PointCloud& source, const PointCloud& target,
                              const GlobalSettings& settings = {});
 

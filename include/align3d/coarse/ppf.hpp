@@ -15,8 +15,9 @@
 // the one that lays most scene points onto the model surface (within 1.5 voxels, point-to-plane
 // distance < 0.25 voxel, normals within 20°): this "fit" separates a plane slid over a plane from
 // the true pose far better than overlap_fraction. Ambiguity compares the same fit: a distinct
-// refined pose (coarse/global.hpp) with fit >= ambiguity_ratio × the winner's sets `ambiguous`.
-// `overlap` and `success` follow the contract (overlap_fraction at 1.5 voxels >= min_overlap).
+// refined pose (coarse/global.hpp) with fit >= ambiguity_ratio × the winner's sets `ambiguous`, and
+// `score` / `second_score` report those two fits. `overlap` and `success` follow the contract: the
+// share of the model's (the object's) points within 1.5 voxels of the moved scene, >= min_overlap.
 //
 // Normal orientation: the angles depend on the normals' signs, so model and scene normals must be
 // oriented by the same rule, one that turns with the data: away from the cloud's centroid. Parts of
@@ -52,9 +53,9 @@ struct PpfModel {
 };
 
 // Downsamples `model` with `voxel` (> 0; enlarged until at most 1500 points remain, so the table
-// holds at most ~2.25 M pairs), estimates normals and builds the table. Throws DataError with
-// fewer than 10 points after downsampling or all points on a line; std::invalid_argument for a
-// voxel that is not positive.
+// holds at most ~2.25 M pairs; PpfModel::voxel is the size used), estimates normals and builds the
+// table. Throws DataError("model", …) with fewer than 10 points after downsampling or all points
+// on a line; std::invalid_argument for a voxel that is not positive.
 PpfModel build_ppf_model(const PointCloud& model, double voxel, int threads = 0);
 
 // Binary file, little-endian throughout (version 1):
@@ -67,15 +68,19 @@ PpfModel build_ppf_model(const PointCloud& model, double voxel, int threads = 0)
 void save_ppf_model(const std::filesystem::path& path, const PpfModel& model);
 PpfModel load_ppf_model(const std::filesystem::path& path);
 
-// Matches `scene` (the source) against the model (the target): the result's T_target_source maps
-// the scene into the model's frame (model ≈ T·scene). The model's voxel is used for the scene
-// (settings.voxel is ignored; result.voxel reports it); score = votes of the winning pose
-// cluster, candidates = clusters verified. Same result, bit for bit, whatever settings.threads.
-// Throws DataError when the downsampled scene has fewer than 10 points or lies on a line.
+// Matches `scene` against the model: the result's T_target_source maps the scene into the model's
+// frame (model ≈ T·scene). The model's voxel is used for the scene (settings.voxel is not: the
+// model was built with it; result.voxel reports it); score = the winner's fit, votes = its pose
+// cluster's votes, candidates = clusters verified. Same result, bit for bit, whatever
+// settings.threads. Throws DataError("scene", …) when the downsampled scene has fewer than 10
+// points or lies on a line.
 GlobalResult ppf_match(const PpfModel& model, const PointCloud& scene,
                        const GlobalSettings& settings);
 
-// build_ppf_model(target, global_voxel(target, settings)) then ppf_match(model, source).
+// build_ppf_model(object, global_voxel(source, target, settings)) then ppf_match(model, other
+// cloud), where the object is the cloud of smaller robust extent (global.hpp), whichever role it
+// has; the result maps source into target either way. A voxel enlarged by the model's cap is
+// noted in `message`. DataError names the role ("source"/"target") of the cloud at fault.
 GlobalResult ppf_register(const PointCloud& source, const PointCloud& target,
                           const GlobalSettings& settings);
 

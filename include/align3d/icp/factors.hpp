@@ -10,6 +10,12 @@
 
 namespace align3d {
 
+// The per-pair cost an ICP run minimises.
+enum class IcpMethod { kPointToPoint, kPointToPlane };
+inline const char* to_string(IcpMethod m) {
+  return m == IcpMethod::kPointToPoint ? "point-to-point" : "point-to-plane";
+}
+
 // Point-to-plane (chapter 39.4; Chen and Medioni 1992): r = (p − q)·n, and for the update
 // p ← p + ω × p + v the Jacobian is ∂r/∂(ω, v) = [p × n; n].
 struct PointToPlaneFactor {
@@ -45,15 +51,5 @@ struct LinearSystem6 {
     return *this;
   }
 };
-
-// Geman-McClure weight w = (1 + (d/scale)²)^−2: ~1 for d ≪ scale, falling as d⁻⁴ beyond it, so
-// pairs far outside the scale barely pull (an IRLS step of the Geman-McClure kernel). scale <=
-// 0: 1.
-inline double geman_mcclure_weight(double d, double scale) {
-  if (scale <= 0) return 1.0;
-  const double u = d / scale;
-  const double s = 1.0 + u * u;
-  return 1.0 / (s * s);
-}
 
 }  // namespace align3d

@@ -1,13 +1,15 @@
-// The ICP loop (chapter 39.1-39.4): nearest-neighbour correspondences → rejection → closed-form
-// (point-to-point, Kabsch) or Gauss-Newton (point-to-plane, 6×6) update → compose → repeat.
-// This is one ICP run with one fixed rejection rule; registration.hpp builds the robust default
-// schedule on top of it.
+// The ICP loop (chapter 39.1-39.4): correspondences (correspondences.hpp) → rejection
+// (rejection.hpp) → update (solver.hpp: closed-form point-to-point or Gauss-Newton point-to-plane)
+// → compose → termination check (termination.hpp) → repeat.
+// This is one ICP run with one fixed rejection rule; refine.hpp builds the robust default schedule
+// on top of it.
 #pragma once
 
 #include <Eigen/Geometry>
 #include <vector>
 
 #include "align3d/icp/degeneracy.hpp"
+#include "align3d/icp/factors.hpp"
 #include "align3d/icp/rejection.hpp"
 #include "align3d/icp/termination.hpp"
 #include "align3d/kdtree.hpp"
@@ -16,11 +18,6 @@
 #include "align3d/se3.hpp"
 
 namespace align3d {
-
-enum class IcpMethod { kPointToPoint, kPointToPlane };
-inline const char* to_string(IcpMethod m) {
-  return m == IcpMethod::kPointToPoint ? "point-to-point" : "point-to-plane";
-}
 
 struct IcpSettings {
   IcpMethod method = IcpMethod::kPointToPlane;
@@ -31,14 +28,6 @@ struct IcpSettings {
   // every iteration (IRLS); 0: plain least squares as in the chapter.
   double robust_scale = 0.0;
   int threads = 0;  // 0: all cores; the result does not depend on it
-};
-
-// One evaluation of a pose: the initial one, then one after each update.
-struct IterationRecord {
-  double rms = 0;        // RMS residual of the kept pairs at that pose: Euclidean distance
-                         // (point-to-point) or distance to the target plane (point-to-plane)
-  std::size_t kept = 0;  // pairs that passed rejection
-  double threshold = 0;  // rejection threshold used (data units; infinity for "none")
 };
 
 struct IcpResult {
@@ -62,7 +51,8 @@ struct IcpResult {
 };
 
 // Registers `source` onto `target` starting from `init` (target ≈ T·source). `tree` must index
-// target.positions; point-to-plane needs target normals (std::invalid_argument otherwise).
+// target.positions; point-to-plane needs target normals (std::invalid_argument otherwise, and for
+// the rejection rule kAuto, which is refine()'s schedule).
 IcpResult icp(const PointCloud& source, const PointCloud& target, const KdTree& tree,
               const Eigen::Isometry3d& init, const IcpSettings& settings);
 

@@ -13,6 +13,8 @@ struct RejectionRule {
     kMedian,    // threshold = max(factor · median distance, floor)   (the chapter's rule)
     kDistance,  // threshold = distance
     kNone,      // keep every pair
+    kAuto,      // not one rule but the coarse-to-fine schedule of icp/refine.hpp, which runs ICP
+                // with distance rules derived from the data; icp() alone rejects it
   };
   Kind kind = Kind::kMedian;
   double factor = 2.5;
@@ -24,6 +26,7 @@ struct RejectionRule {
   }
   static RejectionRule max_distance(double d) { return {Kind::kDistance, 0.0, 0.0, d}; }
   static RejectionRule none() { return {Kind::kNone, 0.0, 0.0, 0.0}; }
+  static RejectionRule automatic() { return {Kind::kAuto, 0.0, 0.0, 0.0}; }
 
   // An upper bound on the threshold known before the search (infinity for the median rule), used to
   // bound the nearest-neighbour search.
@@ -33,9 +36,14 @@ struct RejectionRule {
 };
 
 // The threshold for one iteration given the distances of all found pairs (reordered in place).
+// std::invalid_argument for kAuto.
 double rejection_threshold(const RejectionRule& rule, std::vector<double>& distances);
 
-// "median:2.5", "median:2.5:0.5" (factor, floor), "distance:1.2", "none"; "median" alone =
+// The same for the pairs found by find_correspondences (pairs beyond the search bound excluded).
+struct Correspondences;
+double rejection_threshold(const RejectionRule& rule, const Correspondences& pairs);
+
+// "auto", "median:2.5", "median:2.5:0.5" (factor, floor), "distance:1.2", "none"; "median" alone =
 // factor 2.5. Throws std::invalid_argument with a message naming the bad part.
 RejectionRule parse_rejection_rule(const std::string& text);
 std::string to_string(const RejectionRule& rule);

@@ -1,7 +1,10 @@
 // When the ICP loop stops (chapter 39.2, "Termination criterion"), and why.
 #pragma once
 
+#include <Eigen/Geometry>
+#include <cstddef>
 #include <string>
+#include <vector>
 
 namespace align3d {
 
@@ -47,5 +50,22 @@ inline bool is_convergence(StopReason r) {
   return r == StopReason::kRmsChange || r == StopReason::kTransformChange ||
          r == StopReason::kCycle;
 }
+
+// One evaluation of a pose: the initial one, then one after each update.
+struct IterationRecord {
+  double rms = 0;        // RMS residual of the kept pairs at that pose: Euclidean distance
+                         // (point-to-point) or distance to the target plane (point-to-plane)
+  std::size_t kept = 0;  // pairs that passed rejection
+  double threshold = 0;  // rejection threshold used (data units; infinity for "none")
+};
+
+// The convergence criteria, checked on the pose just evaluated (history.back(), whose update is
+// `delta`; `previous_rms` is the RMS of the evaluation before it, NaN for the first): true, with
+// the reason, when the loop should stop there and return that pose. In order: a state of the last
+// 4 evaluations repeats (kCycle), |ΔRMS| below rms_change (kRmsChange), the update below both
+// rotation and translation × `diagonal` (kTransformChange). The iteration cap is the caller's.
+bool check_termination(const std::vector<IterationRecord>& history, double previous_rms,
+                       const Eigen::Isometry3d& delta, double diagonal,
+                       const TerminationSettings& settings, StopReason& reason);
 
 }  // namespace align3d

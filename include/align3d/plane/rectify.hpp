@@ -14,32 +14,45 @@
 
 #include <Eigen/Geometry>
 #include <optional>
+#include <vector>
 
 #include "align3d/plane/plane.hpp"
 #include "align3d/point_cloud.hpp"
+#include "align3d/warning.hpp"
 
 namespace align3d {
 
 struct RectifySettings {
-  bool robust = false;  // find the dominant plane with RANSAC first (clutter-proof)
-  std::optional<Eigen::Vector3d> up;
+  // true (the default): the dominant plane found by RANSAC, refitted by least squares on its
+  // inliers, which holds on a scene with parts, walls or clutter; false: least squares on every
+  // point (the chapter's fit, right only when the cloud is the plate alone).
+  bool robust = true;
+  std::optional<Eigen::Vector3d> up;  // non-zero; std::invalid_argument otherwise
   RansacPlaneSettings ransac;
 };
 
+// Warns ("not_flat") when the inliers' RMS distance to the plane exceeds this multiple of the
+// cloud's surface noise (cloud_stats.hpp; not below 5 % of the point spacing): the points the
+// plane was fitted to do not lie on one plane (a least-squares fit through parts or walls, a
+// curved or stepped surface), so the plane and the tilt are not to be trusted.
+constexpr double kMaxFlatnessNoise = 3.0;
+
 struct RectifyResult {
-  Eigen::Isometry3d transformation = Eigen::Isometry3d::Identity();  // cloud → rectified frame
-  Eigen::Vector3d normal =
-      Eigen::Vector3d::UnitZ();  // fitted plane normal, oriented up (input frame)
-  double tilt_before_deg = 0;    // angle between `normal` and +Z
-  double tilt_after_deg = 0;     // the same, measured by refitting the rectified inliers
-  std::size_t inliers = 0;       // points the plane was fitted to (all, unless robust)
-  double flatness = 0;           // peak-to-valley of the inliers' residuals to the fitted plane
+  Eigen::Isometry3d T_level_cloud = Eigen::Isometry3d::Identity();  // cloud → levelled frame
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();  // fitted normal, oriented up (cloud frame)
+  double tilt_before_deg = 0;                         // angle between `normal` and +Z
+  double tilt_after_deg = 0;  // the same, measured by refitting the levelled inliers
+  std::size_t inliers = 0;    // points the plane was fitted to (all, unless robust)
+  double flatness = 0;        // peak-to-valley of the inliers' residuals to the fitted plane
+  double rms = 0;             // RMS of those residuals
+  double noise = 0;           // the cloud's surface noise, for comparison (cloud_stats.hpp)
+  std::vector<Warning> warnings;
 };
 
 // The rotation taking unit vector n to +Z by the shortest arc (Rodrigues), with the ±Z cases above.
 Eigen::Matrix3d rotation_to_z(const Eigen::Vector3d& n);
 
-// Throws DataError when the cloud defines no plane (too few points, collinear).
+// Throws DataError when the cloud defines no plane (too few points, collinear, a volume).
 RectifyResult rectify(const PointCloud& cloud, const RectifySettings& settings = {});
 
 }  // namespace align3d

@@ -1,6 +1,6 @@
-// The default registration (`auto`) against ground truth on the chapter's scene, its harder
-// variants and partial views of non-planar objects (issue #2, "Robust defaults").
-#include "align3d/registration.hpp"
+// refine()'s default schedule (rejection `auto`) against ground truth on the chapter's scene, its
+// harder variants and partial views of non-planar objects (issue #2, "Robust defaults").
+#include "align3d/icp/refine.hpp"
 
 #include <gtest/gtest.h>
 
@@ -24,7 +24,7 @@ TEST_P(ConveyorVariant, DefaultRegistrationRecoversThePose) {
   auto settings = synth::ConveyorSettings::variant(std::get<0>(GetParam()));
   settings.seed = static_cast<std::uint64_t>(std::get<1>(GetParam()));
   const synth::Scene scene = synth::make_conveyor_scene(settings);
-  const RegistrationResult r = register_clouds(scene.scan, scene.model, kIdentity);
+  const RefineResult r = refine(scene.scan, scene.model, kIdentity);
   EXPECT_TRUE(r.icp.converged);
   EXPECT_LT(rotation_error_deg(r.icp.T_target_source, scene.T_model_scan), 0.05);
   EXPECT_LT(translation_error(r.icp.T_target_source, scene.T_model_scan), 0.02);
@@ -39,14 +39,14 @@ INSTANTIATE_TEST_SUITE_P(Variants, ConveyorVariant,
 
 // On the extreme variant the chapter's median rule locks onto the plane and ends degrees off; the
 // default lands in the right basin (its accuracy is then limited by the tiny features' few points).
-TEST(Registration, DefaultFindsTheBasinWhereTheMedianRuleLocksOntoThePlane) {
+TEST(Refine, DefaultFindsTheBasinWhereTheMedianRuleLocksOntoThePlane) {
   const synth::Scene scene =
       synth::make_conveyor_scene(synth::ConveyorSettings::variant("extreme"));
-  RegistrationSettings median;
+  RefineSettings median;
   median.rejection = RejectionRule::median(2.5, 0.5);
-  const RegistrationResult locked = register_clouds(scene.scan, scene.model, kIdentity, median);
+  const RefineResult locked = refine(scene.scan, scene.model, kIdentity, median);
   EXPECT_GT(rotation_error_deg(locked.icp.T_target_source, scene.T_model_scan), 1.0);
-  const RegistrationResult r = register_clouds(scene.scan, scene.model, kIdentity);
+  const RefineResult r = refine(scene.scan, scene.model, kIdentity);
   EXPECT_LT(rotation_error_deg(r.icp.T_target_source, scene.T_model_scan), 0.1);
   EXPECT_LT(translation_error(r.icp.T_target_source, scene.T_model_scan), 0.05);
 }
@@ -60,7 +60,7 @@ TEST_P(ObjectView, DefaultRegistrationRecoversThePose) {
   s.shape = std::get<0>(GetParam());
   s.seed = static_cast<std::uint64_t>(std::get<1>(GetParam()));
   const synth::Scene scene = synth::make_object_scene(s);
-  const RegistrationResult r = register_clouds(scene.scan, scene.model, kIdentity);
+  const RefineResult r = refine(scene.scan, scene.model, kIdentity);
   EXPECT_TRUE(r.icp.converged);
   EXPECT_LT(rotation_error_deg(r.icp.T_target_source, scene.T_model_scan), 0.05);
   EXPECT_LT(translation_error(r.icp.T_target_source, scene.T_model_scan), 0.03);
@@ -77,11 +77,10 @@ PointCloud scaled(const PointCloud& c, double s) {
 }
 
 // Unit independence: the same scene in metres gives the same rotation and the translation / 1000.
-TEST(Registration, DefaultsAreUnitIndependent) {
+TEST(Refine, DefaultsAreUnitIndependent) {
   const synth::Scene mm = synth::make_conveyor_scene();
-  const RegistrationResult a = register_clouds(mm.scan, mm.model, kIdentity);
-  const RegistrationResult b =
-      register_clouds(scaled(mm.scan, 1e-3), scaled(mm.model, 1e-3), kIdentity);
+  const RefineResult a = refine(mm.scan, mm.model, kIdentity);
+  const RefineResult b = refine(scaled(mm.scan, 1e-3), scaled(mm.model, 1e-3), kIdentity);
   EXPECT_EQ(a.total_iterations, b.total_iterations);
   EXPECT_LT(rad_to_deg(rotation_angle(a.icp.T_target_source.linear().transpose() *
                                       b.icp.T_target_source.linear())),
@@ -92,30 +91,30 @@ TEST(Registration, DefaultsAreUnitIndependent) {
   EXPECT_NEAR(a.icp.rms * 1e-3, b.icp.rms, 1e-9);
 }
 
-TEST(Registration, SameResultWithOneOrTwoThreads) {
+TEST(Refine, SameResultWithOneOrTwoThreads) {
   const synth::Scene scene = synth::make_conveyor_scene();
-  RegistrationSettings one, two;
+  RefineSettings one, two;
   one.threads = 1;
   two.threads = 2;
-  const RegistrationResult a = register_clouds(scene.scan, scene.model, kIdentity, one);
-  const RegistrationResult b = register_clouds(scene.scan, scene.model, kIdentity, two);
+  const RefineResult a = refine(scene.scan, scene.model, kIdentity, one);
+  const RefineResult b = refine(scene.scan, scene.model, kIdentity, two);
   EXPECT_EQ(a.icp.T_target_source.matrix(), b.icp.T_target_source.matrix());
   EXPECT_EQ(a.total_iterations, b.total_iterations);
 }
 
 // Target normals are estimated only where pairs need them; the pose is that of a run on a target
 // whose normals were all estimated beforehand (used as given), to rounding.
-TEST(Registration, EstimatesOnlyTheTargetNormalsItUses) {
+TEST(Refine, EstimatesOnlyTheTargetNormalsItUses) {
   synth::ObjectSettings s;
   s.shape = "bracket";
   const synth::Scene scene = synth::make_object_scene(s);
   PointCloud with_normals = scene.model;
   estimate_normals(with_normals, NormalSettings{});
   for (const bool automatic : {true, false}) {
-    RegistrationSettings settings;
+    RefineSettings settings;
     if (!automatic) settings.rejection = RejectionRule::max_distance(2.0);
-    const RegistrationResult lazy = register_clouds(scene.scan, scene.model, kIdentity, settings);
-    const RegistrationResult given = register_clouds(scene.scan, with_normals, kIdentity, settings);
+    const RefineResult lazy = refine(scene.scan, scene.model, kIdentity, settings);
+    const RefineResult given = refine(scene.scan, with_normals, kIdentity, settings);
     EXPECT_GT(lazy.estimated_normals, scene.model.size() / 4);
     EXPECT_LT(lazy.estimated_normals, scene.model.size());
     EXPECT_EQ(lazy.undefined_normals, 0u);
@@ -125,18 +124,18 @@ TEST(Registration, EstimatesOnlyTheTargetNormalsItUses) {
   }
 }
 
-TEST(Registration, RejectsCloudsThatCannotBeRegistered) {
+TEST(Refine, RejectsCloudsThatCannotBeRegistered) {
   const synth::Scene scene = synth::make_conveyor_scene();
   PointCloud few;
   few.positions.assign(scene.model.positions.begin(), scene.model.positions.begin() + 5);
-  EXPECT_THROW(register_clouds(few, scene.model, kIdentity), DataError);
+  EXPECT_THROW(refine(few, scene.model, kIdentity), DataError);
   PointCloud line;
   for (int i = 0; i < 100; ++i) line.positions.emplace_back(i, 2 * i, 3 * i);
-  EXPECT_THROW(register_clouds(line, scene.model, kIdentity), DataError);
-  EXPECT_THROW(register_clouds(scene.scan, line, kIdentity), DataError);
+  EXPECT_THROW(refine(line, scene.model, kIdentity), DataError);
+  EXPECT_THROW(refine(scene.scan, line, kIdentity), DataError);
   PointCloud spot;
   spot.positions.assign(50, Eigen::Vector3d(1, 2, 3));
-  EXPECT_THROW(register_clouds(spot, scene.model, kIdentity), DataError);
+  EXPECT_THROW(refine(spot, scene.model, kIdentity), DataError);
 }
 
 }  // namespace

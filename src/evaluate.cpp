@@ -1,16 +1,15 @@
-#include "align3d/report/evaluation.hpp"
+#include "align3d/evaluate.hpp"
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 
-#include "align3d/coarse/global.hpp"
-#include "align3d/registration.hpp"
+#include "align3d/align.hpp"
 #include "align3d/se3.hpp"
 #include "align3d/synth/scenes.hpp"
 #include "detail/random.hpp"
 
-namespace align3d::report {
+namespace align3d {
 namespace {
 
 Eigen::Vector3d random_unit(Random& rng) {
@@ -26,6 +25,27 @@ Random trial_rng(std::uint64_t seed, std::uint64_t k) {
   return Random(splitmix64(seed + 0x9E3779B97F4A7C15ULL * k));
 }
 
+AlignSettings method_settings(EvalMethod method, std::uint64_t seed, int threads) {
+  AlignSettings s;
+  s.seed = seed;
+  s.threads = threads;
+  switch (method) {
+    case EvalMethod::kPointToPoint:
+      s.init = InitPolicy::kIdentity;
+      s.refine.method = IcpMethod::kPointToPoint;
+      break;
+    case EvalMethod::kPointToPlane:
+      s.init = InitPolicy::kIdentity;
+      break;
+    case EvalMethod::kGlobal:
+      s.init = InitPolicy::kGlobal;
+      break;
+    case EvalMethod::kAuto:
+      break;
+  }
+  return s;
+}
+
 }  // namespace
 
 const char* to_string(EvalMethod m) {
@@ -36,6 +56,8 @@ const char* to_string(EvalMethod m) {
       return "point-to-plane ICP";
     case EvalMethod::kGlobal:
       return "global (fpfh) + point-to-plane ICP";
+    case EvalMethod::kAuto:
+      return "align3d default (init auto)";
   }
   return "?";
 }
@@ -55,53 +77,43 @@ std::vector<EvalScene> evaluation_scenes() {
 }
 
 TrialResult run_trial(const EvalScene& scene, EvalMethod method, double angle_deg,
-                      const Eigen::Vector3d& axis, const Eigen::Vector3d& t, std::uint64_t seed) {
+                      const Eigen::Vector3d& axis, const Eigen::Vector3d& t, std::uint64_t seed,
+                      int threads) {
   const Eigen::Isometry3d P = rigid_transform(angle_deg, axis, t);
   const PointCloud moved = transformed(scene.source, P);
-  const Eigen::Isometry3d truth = scene.truth * P.inverse();  // target ≈ truth·moved
+  const Eigen::Isometry3d truth = scene.T_target_source * P.inverse();  // target ≈ truth·moved
 
   const auto start = std::chrono::steady_clock::now();
-  RegistrationSettings settings;
-  settings.method =
-      method == EvalMethod::kPointToPoint ? IcpMethod::kPointToPoint : IcpMethod::kPointToPlane;
-  Eigen::Isometry3d init = Eigen::Isometry3d::Identity();
-  TrialResult r;
-  if (method == EvalMethod::kGlobal) {
-    GlobalSettings gs;
-    gs.seed = seed;
-    const GlobalResult g = global_register(moved, scene.target, gs);
-    if (!g.success) {
-      r.time_ms =
-          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
-              .count();
-      r.rotation_error_deg = 180;
-      r.translation_error = 1e300;
-      return r;
-    }
-    init = g.T_target_source;
-  }
-  const RegistrationResult reg = register_clouds(moved, scene.target, init, settings);
-  r.time_ms =
+  const AlignResult r = align(moved, scene.target, method_settings(method, seed, threads));
+  TrialResult out;
+  out.time_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-  const Eigen::Isometry3d& T = reg.icp.T_target_source;
-  r.rotation_error_deg = rad_to_deg(rotation_angle(T.linear().transpose() * truth.linear()));
-  r.translation_error = (T.translation() - truth.translation()).norm();
-  r.success = r.rotation_error_deg < 1.0 &&
-              r.translation_error < 0.005 * bounding_box_diagonal(scene.target);
-  return r;
+  if (!r.success) {
+    out.rotation_error_deg = 180;
+    out.translation_error = 1e300;
+    return out;
+  }
+  const PoseError e = pose_error(r.transformation, truth);
+  out.rotation_error_deg = e.rotation_deg;
+  out.translation_error = e.translation;
+  out.success = e.rotation_deg < 1.0 && e.translation < 0.005 * bounding_box_diagonal(scene.target);
+  return out;
 }
 
-SuccessRow success_rate(const EvalScene& scene, EvalMethod method, int trials, std::uint64_t seed) {
+SuccessRow success_rate(const EvalScene& scene, EvalMethod method, int trials, std::uint64_t seed,
+                        int threads, const ProgressCallback& progress) {
   SuccessRow row{scene.name, method, trials, 0, 0, 0};
   const double half_diagonal = 0.5 * bounding_box_diagonal(scene.target);
   std::vector<double> times;
   for (int k = 0; k < trials; ++k) {
+    if (progress)
+      progress({"trials", static_cast<std::size_t>(k), static_cast<std::size_t>(trials)});
     Random rng = trial_rng(seed, static_cast<std::uint64_t>(k));
     const double angle = rng.uniform(0, 180);
     const Eigen::Vector3d axis = random_unit(rng);
     const Eigen::Vector3d t = random_unit(rng) * rng.uniform(0, half_diagonal);
     const TrialResult r =
-        run_trial(scene, method, angle, axis, t, seed + static_cast<std::uint64_t>(k));
+        run_trial(scene, method, angle, axis, t, seed + static_cast<std::uint64_t>(k), threads);
     row.successes += r.success;
     row.worst_rotation_error_deg = std::max(row.worst_rotation_error_deg, r.rotation_error_deg);
     times.push_back(r.time_ms);
@@ -117,20 +129,24 @@ SuccessRow success_rate(const EvalScene& scene, EvalMethod method, int trials, s
 Basin convergence_basin(const EvalScene& scene, EvalMethod method,
                         const std::vector<double>& angles_deg,
                         const std::vector<double>& translation_fractions, int trials_per_cell,
-                        std::uint64_t seed) {
+                        std::uint64_t seed, int threads, const ProgressCallback& progress) {
   Basin basin{angles_deg, translation_fractions, trials_per_cell,
               Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(translation_fractions.size()),
                                     static_cast<Eigen::Index>(angles_deg.size()))};
   const double diagonal = bounding_box_diagonal(scene.target);
+  const auto total =
+      static_cast<std::size_t>(translation_fractions.size() * angles_deg.size() *
+                               static_cast<std::size_t>(std::max(0, trials_per_cell)));
   std::uint64_t k = 0;
   for (std::size_t row = 0; row < translation_fractions.size(); ++row)
     for (std::size_t col = 0; col < angles_deg.size(); ++col) {
       int successes = 0;
       for (int trial = 0; trial < trials_per_cell; ++trial, ++k) {
+        if (progress) progress({"basin trials", static_cast<std::size_t>(k), total});
         Random rng = trial_rng(seed, k);
         const Eigen::Vector3d axis = random_unit(rng);
         const Eigen::Vector3d t = random_unit(rng) * translation_fractions[row] * diagonal;
-        successes += run_trial(scene, method, angles_deg[col], axis, t, seed + k).success;
+        successes += run_trial(scene, method, angles_deg[col], axis, t, seed + k, threads).success;
       }
       basin.success(static_cast<Eigen::Index>(row), static_cast<Eigen::Index>(col)) =
           static_cast<double>(successes) / std::max(1, trials_per_cell);
@@ -138,4 +154,4 @@ Basin convergence_basin(const EvalScene& scene, EvalMethod method,
   return basin;
 }
 
-}  // namespace align3d::report
+}  // namespace align3d

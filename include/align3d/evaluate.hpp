@@ -1,7 +1,7 @@
-// Evaluation of registration from arbitrary starting poses (issue #4): success rates over seeded
-// random initial poses, and the convergence basin (success over a grid of initial rotation angle ×
-// translation magnitude, random axes and directions, as in Rusinkiewicz 2019's symmetric-ICP
-// study).
+// Evaluation of registration from arbitrary starting poses, through align() (align.hpp): success
+// rates over seeded random initial poses, and the convergence basin (success over a grid of
+// initial rotation angle × translation magnitude, random axes and directions, as in Rusinkiewicz
+// 2019's symmetric-ICP study). The engine behind `align3d evaluate`.
 #pragma once
 
 #include <Eigen/Core>
@@ -12,23 +12,22 @@
 #include <vector>
 
 #include "align3d/point_cloud.hpp"
+#include "align3d/progress.hpp"
 
-namespace align3d::report {
+namespace align3d {
 
 struct EvalScene {
   std::string name;
-  PointCloud source, target;  // scan and model
-  Eigen::Isometry3d truth;    // target ≈ truth·source
+  PointCloud source, target;          // scan and model
+  Eigen::Isometry3d T_target_source;  // the truth: target ≈ T·source
 };
 
 // The chapter scene and two partial views of objects of our own (~60 % overlap, 5 % outliers).
 std::vector<EvalScene> evaluation_scenes();
 
-enum class EvalMethod {
-  kPointToPoint,
-  kPointToPlane,
-  kGlobal
-};  // ICP alone (defaults) or fpfh + ICP
+// What runs from each starting pose: ICP alone (refine's defaults, init identity) with either
+// metric, the global stage (fpfh) then ICP, or align()'s default (init auto).
+enum class EvalMethod { kPointToPoint, kPointToPlane, kGlobal, kAuto };
 const char* to_string(EvalMethod m);
 
 struct TrialResult {
@@ -37,9 +36,10 @@ struct TrialResult {
 };
 
 // Moves the source by a rotation of `angle_deg` about `axis` and a translation `t`, registers it
-// back from the identity and scores it against the known truth.
+// back from the identity and scores it against the known truth. `threads` as everywhere.
 TrialResult run_trial(const EvalScene& scene, EvalMethod method, double angle_deg,
-                      const Eigen::Vector3d& axis, const Eigen::Vector3d& t, std::uint64_t seed);
+                      const Eigen::Vector3d& axis, const Eigen::Vector3d& t, std::uint64_t seed,
+                      int threads = 0);
 
 struct SuccessRow {
   std::string scene;
@@ -49,8 +49,10 @@ struct SuccessRow {
 };
 
 // `trials` seeded random poses per scene: angle uniform in [0°, 180°], uniform random axis,
-// translation uniform in [0, ½ diagonal] in a uniform random direction.
-SuccessRow success_rate(const EvalScene& scene, EvalMethod method, int trials, std::uint64_t seed);
+// translation uniform in [0, ½ diagonal] in a uniform random direction. `progress` hears of each
+// trial.
+SuccessRow success_rate(const EvalScene& scene, EvalMethod method, int trials, std::uint64_t seed,
+                        int threads = 0, const ProgressCallback& progress = {});
 
 struct Basin {
   std::vector<double> angles_deg;             // columns
@@ -62,6 +64,6 @@ struct Basin {
 Basin convergence_basin(const EvalScene& scene, EvalMethod method,
                         const std::vector<double>& angles_deg,
                         const std::vector<double>& translation_fractions, int trials_per_cell,
-                        std::uint64_t seed);
+                        std::uint64_t seed, int threads = 0, const ProgressCallback& progress = {});
 
-}  // namespace align3d::report
+}  // namespace align3d

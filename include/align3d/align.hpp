@@ -1,0 +1,98 @@
+// The pipeline: one call from two clouds to a pose, and the only place that assembles the stages
+// (every command and the chapter's experiments call it). The stages remain callable on their own:
+// global_register (coarse/global.hpp), refine (icp/refine.hpp), icp (icp/icp.hpp).
+//
+// Convention: the result maps SOURCE into TARGET's frame, target ≈ T·source (the measured scan is
+// usually the source, the model the target). Units are the data's; every default distance follows
+// the data (refine.hpp, global.hpp, support.hpp), so the same clouds in mm or m give the same pose.
+//
+// The initial pose (AlignSettings::init):
+//   identity, pose  ICP (refine) from the identity or from initial_pose;
+//   global          the global stage (fpfh or ppf), then ICP from its pose; no pose with enough
+//                   support is no solution (success false);
+//   auto (default)  ICP from initial_pose; when its answer is weakly supported (support.hpp) —
+//                   overlap below kWeakOverlap, RMS above kWeakRms × the noise σ₀, free directions
+//                   (degeneracy.hpp), or no convergence — the global stage runs too, ICP refines
+//                   its pose, and the better supported of the two answers is kept: the global one
+//                   only when its overlap is clearly larger (by kClearlyBetter) or equal with a
+//                   clearly smaller RMS. `path` says which answer was kept.
+// Whatever the path, a result that may be wrong comes with warnings (never silently): ICP hit its
+// iteration cap, free directions, weak overlap, RMS far above the noise, an ambiguous global pose,
+// a global stage that found nothing in auto mode.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "align3d/coarse/global.hpp"
+#include "align3d/coarse/ppf.hpp"
+#include "align3d/icp/refine.hpp"
+#include "align3d/point_cloud.hpp"
+#include "align3d/progress.hpp"
+#include "align3d/support.hpp"
+#include "align3d/warning.hpp"
+
+namespace align3d {
+
+enum class InitPolicy { kIdentity, kPose, kGlobal, kAuto };
+const char* to_string(InitPolicy p);
+
+// Support below either bound makes an answer weak (see above).
+constexpr double kWeakOverlap = 0.2;
+constexpr double kWeakRms = 3.0;
+constexpr double kClearlyBetter = 0.05;
+
+struct AlignSettings {
+  InitPolicy init = InitPolicy::kAuto;
+  // The pose ICP starts from for kPose and kAuto (target ≈ T·source); identity: the clouds as
+  // given.
+  Eigen::Isometry3d initial_pose = Eigen::Isometry3d::Identity();
+  RefineSettings refine;  // the ICP layer (its threads are replaced by `threads`)
+  GlobalSettings global;  // the global stage (its threads and seed are replaced by these)
+  // A model description of the TARGET built once (build_ppf_model / `align3d ppf-model`), used by
+  // the global stage instead of building one (implies the ppf method). Not owned; may be null.
+  const PpfModel* ppf_model = nullptr;
+  int threads = 0;  // 0: all cores; the result does not depend on it
+  std::uint64_t seed = 1;
+  ProgressCallback progress;  // optional
+};
+
+// One answer considered by the auto policy, with its support.
+struct AlignCandidate {
+  std::string path;  // "initial" (ICP from the initial pose) or "global"
+  Eigen::Isometry3d transformation = Eigen::Isometry3d::Identity();
+  Support support;
+  double rms = 0;
+  bool weak = false;
+};
+
+struct AlignTimings {
+  double global_ms = 0, refine_ms = 0, support_ms = 0, total_ms = 0;
+};
+
+struct AlignResult {
+  // false: no solution (the global stage found no pose with enough support under kGlobal, or ICP
+  // kept too few pairs); `failure` says why, `transformation` is then the identity or the last
+  // pose tried and must not be used.
+  bool success = false;
+  std::string failure;
+  Eigen::Isometry3d transformation = Eigen::Isometry3d::Identity();  // target ≈ T·source
+  std::string path;                        // the answer kept: "initial" or "global"
+  std::string reason;                      // why the auto policy ran the global stage, or empty
+  RefineResult refine;                     // ICP of the kept answer: history, stages, stop reason
+  std::optional<GlobalResult> global;      // when the global stage ran
+  Support support;                         // of the kept answer
+  std::vector<AlignCandidate> candidates;  // every answer considered, in order
+  std::vector<Warning> warnings;           // empty when clean
+  AlignTimings timings;
+};
+
+// Throws DataError("source"/"target", …) for clouds that cannot be registered (too few points, all
+// on a line; refine.hpp, global.hpp) and std::invalid_argument for inconsistent settings.
+AlignResult align(const PointCloud& source, const PointCloud& target,
+                  const AlignSettings& settings = {});
+
+}  // namespace align3d

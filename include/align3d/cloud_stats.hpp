@@ -1,0 +1,35 @@
+// Measurements of a cloud that set align3d's data-relative defaults, so that the same data in
+// millimetres or metres behaves the same: the point spacing, the surface noise and a robust extent;
+// and the check that a cloud can take part in registration.
+#pragma once
+
+#include <cstddef>
+#include <string>
+
+#include "align3d/kdtree.hpp"
+#include "align3d/point_cloud.hpp"
+
+namespace align3d {
+
+// Median nearest-neighbour distance between distinct points of `cloud` (on at most `samples`
+// evenly spaced points): the point spacing. 0 for fewer than 2 points. `tree` indexes the cloud.
+double point_spacing(const PointCloud& cloud, const KdTree& tree, std::size_t samples = 2000);
+
+// The surface noise: the median, over at most `samples` evenly spaced points, of the RMS distance
+// of each point's k nearest neighbours to their own best-fit plane (√ of the smallest eigenvalue
+// of the neighbourhood covariance). On a flat patch with Gaussian noise σ along the normal it is
+// ≈ 0.9 σ (k = 20); curvature within the neighbourhood adds to it (a sphere of radius R sampled at
+// spacing s: ≈ s²k/(8πR) more), sharp edges do not move the median. 0 for fewer than 3 points.
+double surface_noise(const PointCloud& cloud, const KdTree& tree, int k = 20,
+                     std::size_t samples = 2000);
+
+// The diagonal of the box spanned, on each axis, by the 0.5th and 99.5th percentiles of the
+// coordinates: the size of the bulk of the cloud, which a few stray points far away (a depth
+// camera's flying pixels, a background wall) do not inflate. 0 for an empty cloud.
+double robust_extent(const PointCloud& cloud);
+
+// Throws DataError(what, …) when the cloud has fewer than 6 points, all at one spot, or all on one
+// line.
+void check_registrable(const PointCloud& cloud, const std::string& what);
+
+}  // namespace align3d

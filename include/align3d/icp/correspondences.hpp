@@ -1,0 +1,33 @@
+// Correspondence search (chapter 39.1 step 1): each source point, moved by the current pose, is
+// paired with its nearest target point (kd-tree, O(log M) per query).
+#pragma once
+
+#include <Eigen/Geometry>
+#include <cstddef>
+#include <limits>
+#include <vector>
+
+#include "align3d/kdtree.hpp"
+#include "align3d/point_cloud.hpp"
+
+namespace align3d {
+
+constexpr std::size_t kNoPartner = std::numeric_limits<std::size_t>::max();
+
+// One entry per source point: its partner's target index (kNoPartner when none lies within the
+// search bound) and the true (not squared) distance to it (infinity when none).
+struct Correspondences {
+  std::vector<std::size_t> target;
+  std::vector<double> distance;
+};
+
+// Pairs T·source[i] with its nearest target point closer than `bound` (data units; infinity: no
+// bound). `tree` indexes target.positions. When `pairs` already holds the previous iteration's
+// partners of the same source, each one bounds its new search: the nearest point is at most as
+// far as the old partner, so the result is the same exact nearest neighbour, found with far less
+// backtracking. Runs on `threads` threads (0: all cores); the result does not depend on it.
+void find_correspondences(const std::vector<Eigen::Vector3d>& source, const PointCloud& target,
+                          const KdTree& tree, const Eigen::Isometry3d& T, double bound, int threads,
+                          Correspondences& pairs);
+
+}  // namespace align3d

@@ -1,0 +1,105 @@
+// Refinement of a pose by ICP: the ICP layer's entry point, used by align() (align.hpp) for every
+// path, and callable on its own.
+//
+// With a fixed rejection rule this is one ICP run (chapter 39.1-39.4). With the default `auto`
+// rejection (RejectionRule::automatic()) it is a coarse-to-fine schedule that does not let the
+// dominant plane of a conveyor scene capture the estimate (the failure of the median rule on such
+// scenes):
+//   1. scales from the data: L = target bounding-box diagonal, s = target point spacing (median
+//      nearest-neighbour distance), so the same data in mm or m behaves the same;
+//   2. point-to-plane ICP with a maximum correspondence distance τ that starts at L/8 and halves
+//      each time a stage has settled, pairs weighted by a Geman-McClure kernel of scale τ/2, so far
+//      pairs (outliers, the intruder wall) pull little while the distinctive structure (box, cap)
+//      stays in reach long enough to fix x, y and yaw;
+//   3. once τ is down to 3 s, the requested metric runs to convergence with τ = max(3 s, 4 σ̂)
+//      (σ̂: the point-to-plane RMS of the last stage, i.e. the noise), still weighted.
+// On large clouds the coarse stages of step 2 use an even thinning of the source to at most 50 000
+// points (every m-th point along a Morton curve); the final stage uses every point.
+// Target normals are used for `auto` whatever the final metric. Measured on the conveyor
+// variants and partial object views of tests/refine_test.cpp; the point-to-point coarse stages we
+// tried first slid along the plane toward the intruder wall on the wide-plane variant.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "align3d/icp/icp.hpp"
+#include "align3d/kdtree.hpp"
+#include "align3d/normals.hpp"
+#include "align3d/point_cloud.hpp"
+
+namespace align3d {
+
+struct RefineSettings {
+  IcpMethod method = IcpMethod::kPointToPlane;           // the final metric
+  RejectionRule rejection = RejectionRule::automatic();  // kAuto: the schedule above
+  // For a fixed rule, of the single run; for `auto`, of the final stage (the coarse stages have
+  // their own cap of 30 iterations and looser tolerances).
+  TerminationSettings termination;
+  NormalSettings normals;  // for target normals when the target has none (k; threads ignored)
+  int threads = 0;         // 0: all cores; the result does not depend on it
+};
+
+// The target of any number of refinements, prepared once: a copy in spatial order (the search,
+// the normals and the ICP sums then touch memory in order; a pose does not depend on the order of
+// the points), its kd-tree, and its normals: the file's, or estimated on demand where pairs need
+// them (NormalCache). Lifetime: self-contained (copies the cloud). Not copyable or movable (the
+// cache refers to the copy). Thread-safety: one refinement at a time.
+class RefineTarget {
+ public:
+  RefineTarget(const PointCloud& target, const NormalSettings& normals = {}, int threads = 0);
+  ~RefineTarget();
+  RefineTarget(const RefineTarget&) = delete;
+  RefineTarget& operator=(const RefineTarget&) = delete;
+
+  const PointCloud& cloud() const { return cloud_; }  // the spatially ordered copy
+  const KdTree& tree() const { return *tree_; }
+  int normal_k() const { return normal_k_; }
+  // The normal of every point in `indices` of cloud() (estimated first where needed), then all
+  // normals, meaningful at the points required so far.
+  const std::vector<Eigen::Vector3d>& normals(const std::vector<std::uint32_t>& indices);
+  NormalCache* cache() { return cache_.get(); }  // null when the cloud came with normals
+  double spacing();                              // point_spacing(), measured once
+  double diagonal() const { return diagonal_; }  // bounding-box diagonal
+
+ private:
+  PointCloud cloud_;
+  std::unique_ptr<KdTree> tree_;
+  std::unique_ptr<NormalCache> cache_;
+  int normal_k_ = 20;
+  double spacing_ = -1, diagonal_ = 0;
+};
+
+struct StageRecord {
+  std::string metric;       // "point-to-point" or "point-to-plane"
+  double max_distance = 0;  // τ of the stage (infinity for none, per-iteration for median)
+  int first_iteration = 0;  // index into the combined history of the stage's first evaluation
+                            // (a stage has iterations + 1 records: its start pose, then one per
+                            // update)
+  int iterations = 0;
+};
+
+struct RefineResult {
+  IcpResult icp;                         // the final stage; T_target_source is the answer
+  std::vector<IterationRecord> history;  // every iteration of every stage, in order
+  std::vector<StageRecord> stages;
+  int total_iterations = 0;
+  double point_spacing = 0;  // the target spacing s used for `auto` (0 otherwise)
+  // Target normals estimated so far when the target has none: only where pairs needed them
+  // (normals.hpp, NormalCache), and of those, the neighbourhoods with no plane.
+  std::size_t estimated_normals = 0;
+  std::size_t undefined_normals = 0;
+};
+
+// Throws DataError("source"/"target", …) when a cloud has too few points (fewer than 6, or fewer
+// than the normal neighbourhood for point-to-plane) or is degenerate (all points on one line or at
+// one spot).
+RefineResult refine(const PointCloud& source, RefineTarget& target, const Eigen::Isometry3d& init,
+                    const RefineSettings& settings = {});
+RefineResult refine(const PointCloud& source, const PointCloud& target,
+                    const Eigen::Isometry3d& init, const RefineSettings& settings = {});
+
+}  // namespace align3d

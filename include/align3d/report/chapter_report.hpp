@@ -1,0 +1,20 @@
+// The chapter's report (align3d demo): the table that sets our numbers beside the chapter's,
+// results.json, figures 39.1-39.6 and report.html, from the experiments of chapter.hpp.
+#pragma once
+
+#include <filesystem>
+#include <string>
+
+#include "align3d/chapter.hpp"
+
+namespace align3d::report {
+
+// The comparison table (markdown): experiment | quantity | chapter | ours.
+std::string chapter_table(const ChapterResults& results);
+
+// Writes table.md, results.json, fig39_1..fig39_6 (.svg and .png; 39.6 is the global remedy) and
+// report.html into `outdir` (created if missing).
+void write_chapter_report(const ChapterScene& scene, const ChapterResults& results,
+                          const std::filesystem::path& outdir);
+
+}  // namespace align3d::report

@@ -1,0 +1,49 @@
+// The JSON reports, written in one place: every command's report and the chapter's results.json
+// are built here, so the same result has the same keys everywhere (the Python binding's to_dict()
+// too). docs/report.md documents every key: type, unit, meaning. Matrices are 4 arrays of 4
+// numbers, row-major; a non-finite number is written as null.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <cstddef>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include "align3d/align.hpp"
+#include "align3d/coarse/global.hpp"
+#include "align3d/plane/rectify.hpp"
+#include "align3d/warning.hpp"
+
+namespace align3d::report {
+
+nlohmann::json to_json(const Eigen::Isometry3d& T);  // 4 arrays of 4 numbers, row-major
+nlohmann::json to_json(const Eigen::Vector3d& v);    // 3 numbers
+nlohmann::json to_json(const std::vector<Warning>& warnings);
+nlohmann::json to_json(const GlobalResult& g);
+nlohmann::json to_json(const Support& s);
+
+// What the report says of the inputs (the library sees clouds, the caller knows their files).
+struct InputInfo {
+  std::string path;  // may be empty
+  std::size_t points = 0;
+};
+
+// The report of one registration (`align3d register`; docs/report.md, "register"). With `truth`
+// (target ≈ truth·source) it adds the pose errors.
+nlohmann::json registration_report(const AlignResult& result, const AlignSettings& settings,
+                                   const InputInfo& source, const InputInfo& target,
+                                   const std::optional<Eigen::Isometry3d>& truth = std::nullopt);
+
+// The report of one plane correction (`align3d rectify`; docs/report.md, "rectify").
+nlohmann::json rectify_report(const RectifyResult& result, const RectifySettings& settings,
+                              const InputInfo& cloud);
+
+// Writes `report` pretty-printed to `path`, atomically (io/atomic_file.hpp), or to `out` when the
+// path is "-".
+void write_json(const std::string& path, const nlohmann::json& report, std::ostream& out);
+
+}  // namespace align3d::report

@@ -1,0 +1,55 @@
+// How well the data support a pose: the measure align() uses to judge an ICP answer, to choose
+// between the answer from the initial pose and the one from global registration, and to warn.
+//
+// Of the two clouds, the object is the one of smaller robust extent (coarse/global.hpp), whichever
+// role it has. At a pose T (target ≈ T·source), an object point is "on" the other cloud's surface
+// when a point of the other cloud lies within `reach` of it and the object point lies within
+// `band` of that point's tangent plane (the target's normal, estimated where needed). `overlap` is
+// the share of the object's points that are on the surface: a wrong local minimum lays part of the
+// object onto the other cloud and leaves the rest off, the right pose lays every overlapping part
+// on it. The distances follow the data, so mm and m behave the same:
+//   s = the larger of the two point spacings (cloud_stats.hpp), σ₀ = √(σ_source² + σ_target²) with
+//   σ the surface noise of each cloud (cloud_stats.hpp: the RMS distance of 20 neighbours to their
+//   plane);  reach = 1.5 s + 3 σ₀,  band = max(3 σ₀, 0.1 s).
+// At most 50 000 object points, evenly spaced, are tested.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <memory>
+
+#include "align3d/coarse/global.hpp"
+#include "align3d/icp/refine.hpp"
+#include "align3d/kdtree.hpp"
+#include "align3d/point_cloud.hpp"
+
+namespace align3d {
+
+struct Support {
+  double overlap = 0;  // share of the object's points on the other cloud's surface at the pose
+  double noise = 0;    // σ₀ (data units)
+  double spacing = 0;  // s (data units)
+  double reach = 0, band = 0;   // the distances of the test (data units)
+  Role object = Role::kTarget;  // which cloud the share is of
+};
+
+// Prepared once for a pair of clouds (the noise, the spacings, a kd-tree of the source), then
+// measures any number of poses. Lifetime: keeps references to `source` and `target`, which must
+// outlive it. Thread-safety: one measure() at a time (it estimates target normals on demand).
+class SupportMeter {
+ public:
+  SupportMeter(const PointCloud& source, RefineTarget& target, int threads = 0);
+  ~SupportMeter();
+  SupportMeter(const SupportMeter&) = delete;
+  SupportMeter& operator=(const SupportMeter&) = delete;
+
+  Support measure(const Eigen::Isometry3d& T_target_source);
+
+ private:
+  const PointCloud& source_;
+  RefineTarget& target_;
+  int threads_;
+  std::unique_ptr<KdTree> source_tree_;
+  Support base_;  // the pose-independent fields
+};
+
+}  // namespace align3d

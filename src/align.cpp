@@ -1,0 +1,226 @@
+#include "align3d/align.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <stdexcept>
+
+#include "align3d/cloud_stats.hpp"
+#include "align3d/error.hpp"
+
+namespace align3d {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double ms_since(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+std::string fixed(double value, int digits) {
+  char buffer[64];
+  std::snprintf(buffer, sizeof buffer, "%.*f", digits, value);
+  return buffer;
+}
+
+std::string number(double value) {
+  char buffer[64];
+  std::snprintf(buffer, sizeof buffer, "%.3g", value);
+  return buffer;
+}
+
+// The noise the RMS is compared with: σ₀, but not below 5 % of the spacing (noise-free synthetic
+// data have σ₀ ≈ 0 while two samplings of one surface still differ by a little).
+double noise_floor(const Support& s) { return std::max(s.noise, 0.05 * s.spacing); }
+
+// What is weak about an answer (align.hpp), as one sentence per finding; empty when nothing.
+std::vector<Warning> weaknesses(const RefineResult& r, const Support& s) {
+  std::vector<Warning> w;
+  const IcpResult& icp = r.icp;
+  if (icp.stop_reason == StopReason::kTooFewCorrespondences) {
+    w.push_back(
+        {"too_few_correspondences", "ICP kept too few pairs within the rejection threshold"});
+    return w;
+  }
+  if (s.overlap < kWeakOverlap)
+    w.push_back(
+        {"weak_overlap", "only " + fixed(100 * s.overlap, 1) + " % of the " + to_string(s.object) +
+                             " (the smaller cloud) lies on the other cloud's surface at "
+                             "the result (at least " +
+                             fixed(100 * kWeakOverlap, 0) + " % expected); the pose may be wrong"});
+  const double floor = noise_floor(s);
+  if (icp.rms > kWeakRms * floor)
+    w.push_back({"high_rms", "RMS " + number(icp.rms) + " is " + fixed(icp.rms / floor, 1) +
+                                 " x the noise estimate " + number(floor) + " (at most " +
+                                 fixed(kWeakRms, 0) +
+                                 " x expected); the pose may be a wrong local minimum"});
+  if (!icp.degenerate_directions.empty())
+    w.push_back({"degenerate", "the geometry does not constrain " +
+                                   std::to_string(icp.degenerate_directions.size()) +
+                                   " direction(s) of the pose (a plane, a cylinder, ...); the "
+                                   "pose was not moved along them (report: "
+                                   "degenerate_directions)"});
+  if (!icp.converged)
+    w.push_back({"not_converged", std::string("ICP did not converge (") +
+                                      to_string(icp.stop_reason) +
+                                      "); the pose may be inaccurate"});
+  return w;
+}
+
+// B replaces A when A failed and B did not, when B lays clearly more of the object on the surface,
+// or as much with a clearly smaller RMS (align.hpp).
+bool clearly_better(const AlignCandidate& b, const AlignCandidate& a, bool a_failed) {
+  if (a_failed) return true;
+  if (b.support.overlap > a.support.overlap + kClearlyBetter) return true;
+  return b.support.overlap >= a.support.overlap - kClearlyBetter && b.rms < a.rms / 1.5;
+}
+
+class Pipeline {
+ public:
+  Pipeline(const PointCloud& source, const PointCloud& target, const AlignSettings& s)
+      : source_(source),
+        target_cloud_(target),
+        s_(s),
+        target_((check_registrable(source, "source"), target), s.refine.normals, s.threads) {
+    refine_ = s.refine;
+    refine_.threads = s.threads;
+    global_ = s.global;
+    global_.threads = s.threads;
+    global_.seed = s.seed;
+    if (s.ppf_model) global_.method = GlobalMethod::kPpf;
+  }
+
+  AlignResult run();
+
+ private:
+  void step(const std::string& task) {
+    if (s_.progress) s_.progress({task, steps_done_++, 0});
+  }
+  // ICP from `init`, measured; appended to the result's candidates.
+  AlignCandidate refine_from(const Eigen::Isometry3d& init, const std::string& path,
+                             RefineResult& r);
+  GlobalResult run_global();
+  void keep(const AlignCandidate& c, RefineResult r);
+
+  const PointCloud& source_;
+  const PointCloud& target_cloud_;
+  const AlignSettings& s_;
+  RefineSettings refine_;
+  GlobalSettings global_;
+  RefineTarget target_;
+  std::unique_ptr<SupportMeter> meter_;
+  AlignResult out_;
+  std::size_t steps_done_ = 0;
+};
+
+AlignCandidate Pipeline::refine_from(const Eigen::Isometry3d& init, const std::string& path,
+                                     RefineResult& r) {
+  step(path == "global" ? "icp from the global pose" : "icp from the initial pose");
+  auto start = Clock::now();
+  r = refine(source_, target_, init, refine_);
+  out_.timings.refine_ms += ms_since(start);
+  start = Clock::now();
+  if (!meter_) meter_ = std::make_unique<SupportMeter>(source_, target_, s_.threads);
+  AlignCandidate c{path, r.icp.T_target_source, meter_->measure(r.icp.T_target_source), r.icp.rms};
+  c.weak = !weaknesses(r, c.support).empty();
+  out_.timings.support_ms += ms_since(start);
+  out_.candidates.push_back(c);
+  return c;
+}
+
+GlobalResult Pipeline::run_global() {
+  step(std::string("global registration (") + to_string(global_.method) + ")");
+  const auto start = Clock::now();
+  GlobalResult g;
+  if (s_.ppf_model) {
+    try {
+      g = ppf_match(*s_.ppf_model, source_, global_);  // the model describes the target
+    } catch (const DataError& e) {
+      throw DataError("source", e.problem());
+    }
+    g.object = Role::kTarget;
+  } else {
+    g = global_register(source_, target_cloud_, global_);
+  }
+  g.time_ms = ms_since(start);
+  out_.timings.global_ms += g.time_ms;
+  return g;
+}
+
+void Pipeline::keep(const AlignCandidate& c, RefineResult r) {
+  out_.transformation = c.transformation;
+  out_.path = c.path;
+  out_.support = c.support;
+  out_.refine = std::move(r);
+  out_.success = out_.refine.icp.stop_reason != StopReason::kTooFewCorrespondences;
+  if (!out_.success)
+    out_.failure =
+        "too few correspondences within the rejection threshold (try a larger distance, or "
+        "rejection auto)";
+}
+
+AlignResult Pipeline::run() {
+  const auto start = Clock::now();
+  const InitPolicy policy = s_.init;
+  RefineResult r;
+  if (policy != InitPolicy::kGlobal) {
+    const Eigen::Isometry3d init =
+        policy == InitPolicy::kIdentity ? Eigen::Isometry3d::Identity() : s_.initial_pose;
+    const AlignCandidate first = refine_from(init, "initial", r);
+    keep(first, std::move(r));
+    if (policy == InitPolicy::kAuto && first.weak) {
+      out_.reason =
+          "ICP from the initial pose: " + weaknesses(out_.refine, first.support).front().message;
+      out_.global = run_global();
+      if (out_.global->success) {
+        RefineResult r2;
+        const AlignCandidate second = refine_from(out_.global->T_target_source, "global", r2);
+        if (clearly_better(second, first, !out_.success)) keep(second, std::move(r2));
+      } else {
+        out_.warnings.push_back({"global_failed",
+                                 "the answer from the initial pose is weak and global "
+                                 "registration found no pose either: " +
+                                     out_.global->message});
+      }
+    }
+  } else {
+    out_.global = run_global();
+    if (!out_.global->success) {
+      out_.failure = "global registration found no pose: " + out_.global->message;
+      out_.timings.total_ms = ms_since(start);
+      return std::move(out_);
+    }
+    const AlignCandidate c = refine_from(out_.global->T_target_source, "global", r);
+    keep(c, std::move(r));
+  }
+  if (out_.global && out_.path == "global" && out_.global->ambiguous)
+    out_.warnings.push_back({"ambiguous", "global registration: " + out_.global->message});
+  if (out_.success)
+    for (Warning& w : weaknesses(out_.refine, out_.support)) out_.warnings.push_back(std::move(w));
+  out_.timings.total_ms = ms_since(start);
+  return std::move(out_);
+}
+
+}  // namespace
+
+const char* to_string(InitPolicy p) {
+  switch (p) {
+    case InitPolicy::kIdentity:
+      return "identity";
+    case InitPolicy::kPose:
+      return "pose";
+    case InitPolicy::kGlobal:
+      return "global";
+    case InitPolicy::kAuto:
+      return "auto";
+  }
+  return "?";
+}
+
+AlignResult align(const PointCloud& source, const PointCloud& target,
+                  const AlignSettings& settings) {
+  Pipeline pipeline(source, target, settings);
+  return pipeline.run();
+}
+
+}  // namespace align3d

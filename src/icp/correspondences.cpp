@@ -1,0 +1,35 @@
+#include "align3d/icp/correspondences.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "detail/parallel.hpp"
+
+namespace align3d {
+
+void find_correspondences(const std::vector<Eigen::Vector3d>& source, const PointCloud& target,
+                          const KdTree& tree, const Eigen::Isometry3d& T, double bound, int threads,
+                          Correspondences& pairs) {
+  const std::size_t n = source.size();
+  if (pairs.target.size() != n) pairs.target.assign(n, kNoPartner);
+  pairs.distance.resize(n);
+  const double sq_bound =
+      std::isfinite(bound) ? bound * bound * (1 + 1e-12) : std::numeric_limits<double>::infinity();
+  parallel_for(n, threads, [&](std::size_t i) {
+    const Eigen::Vector3d p = T * source[i];
+    double sq_limit = sq_bound;
+    if (pairs.target[i] != kNoPartner)
+      sq_limit = std::min(
+          sq_limit, (p - target.positions[pairs.target[i]]).squaredNorm() * (1 + 1e-12) + 1e-300);
+    Neighbor nb;
+    if (tree.nearest(p, nb, sq_limit)) {
+      pairs.target[i] = nb.index;
+      pairs.distance[i] = std::sqrt(nb.sq_distance);
+    } else {
+      pairs.target[i] = kNoPartner;
+      pairs.distance[i] = std::numeric_limits<double>::infinity();
+    }
+  });
+}
+
+}  // namespace align3d

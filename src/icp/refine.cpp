@@ -1,0 +1,160 @@
+#include "align3d/icp/refine.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "align3d/cloud_stats.hpp"
+#include "align3d/error.hpp"
+
+namespace align3d {
+namespace {
+
+// The `auto` schedule's constants (refine.hpp explains the schedule). All distances are in units
+// of L (bounding-box diagonal) or s (point spacing), so the schedule is unit-free.
+constexpr double kStartFraction = 1.0 / 8.0;  // τ0 = L/8
+constexpr double kShrink = 0.5;               // τ ← τ/2 per stage
+constexpr double kKernelFraction = 0.5;       // Geman-McClure scale = τ/2
+constexpr double kFinalSpacings = 3.0;        // final τ >= 3 s
+constexpr double kFinalSigmas = 4.0;          // final τ >= 4 σ̂
+constexpr int kCoarseIterations = 30;
+constexpr int kMaxStages = 12;  // L/8 · 2^-12 is far below any useful spacing
+// Coarse-to-fine in resolution too: the coarse stages see at most this many source points (every
+// m-th along the Morton curve, an even thinning), the final stage all of them.
+constexpr std::size_t kCoarsePoints = 50000;
+
+void append(RefineResult& out, const IcpResult& r, const IcpSettings& s) {
+  StageRecord stage;
+  stage.metric = to_string(s.method);
+  stage.max_distance = s.rejection.kind == RejectionRule::Kind::kDistance
+                           ? s.rejection.distance
+                           : std::numeric_limits<double>::infinity();
+  stage.first_iteration = static_cast<int>(out.history.size());
+  stage.iterations = r.iterations;
+  out.stages.push_back(stage);
+  out.history.insert(out.history.end(), r.history.begin(), r.history.end());
+  out.total_iterations += r.iterations;
+}
+
+PointCloud reordered(const PointCloud& cloud, const std::vector<std::uint32_t>& order) {
+  PointCloud out;
+  out.positions.reserve(order.size());
+  for (std::uint32_t i : order) out.positions.push_back(cloud.positions[i]);
+  if (cloud.has_normals()) {
+    out.normals.reserve(order.size());
+    for (std::uint32_t i : order) out.normals.push_back(cloud.normals[i]);
+  }
+  return out;
+}
+
+// At most kCoarsePoints of `source`, evenly along the Morton curve; empty when it is small enough.
+PointCloud thinned(const PointCloud& source) {
+  PointCloud out;
+  if (source.size() <= kCoarsePoints) return out;
+  const std::vector<std::uint32_t> order = spatial_order(source.positions);
+  const std::size_t step = (source.size() + kCoarsePoints - 1) / kCoarsePoints;
+  for (std::size_t k = 0; k < order.size(); k += step)
+    out.positions.push_back(source.positions[order[k]]);
+  return out;
+}
+
+}  // namespace
+
+RefineTarget::RefineTarget(const PointCloud& target, const NormalSettings& normals, int threads)
+    : normal_k_(normals.k) {
+  check_registrable(target, "target");
+  cloud_ = reordered(target, spatial_order(target.positions));
+  tree_ = std::make_unique<KdTree>(cloud_.positions, threads);
+  diagonal_ = bounding_box_diagonal(cloud_);
+  if (!cloud_.has_normals()) {
+    NormalSettings ns = normals;
+    ns.threads = threads;
+    cache_ = std::make_unique<NormalCache>(cloud_, *tree_, ns);
+  }
+}
+
+RefineTarget::~RefineTarget() = default;
+
+const std::vector<Eigen::Vector3d>& RefineTarget::normals(
+    const std::vector<std::uint32_t>& indices) {
+  if (!cache_) return cloud_.normals;
+  cache_->require(indices);
+  return cache_->normals();
+}
+
+double RefineTarget::spacing() {
+  if (spacing_ < 0) spacing_ = point_spacing(cloud_, *tree_);
+  return spacing_;
+}
+
+RefineResult refine(const PointCloud& source, RefineTarget& target, const Eigen::Isometry3d& init,
+                    const RefineSettings& settings) {
+  check_registrable(source, "source");
+  RefineResult out;
+  const bool automatic = settings.rejection.kind == RejectionRule::Kind::kAuto;
+  NormalCache* normals = target.cache();
+  if ((settings.method == IcpMethod::kPointToPlane || automatic) && normals &&
+      target.cloud().size() < static_cast<std::size_t>(target.normal_k()))
+    throw DataError("target", std::to_string(target.cloud().size()) +
+                                  " points; point-to-plane needs at least the normal "
+                                  "neighbourhood k = " +
+                                  std::to_string(target.normal_k()));
+  auto run = [&](const PointCloud& from, const Eigen::Isometry3d& T, const IcpSettings& s) {
+    IcpResult r =
+        normals ? icp(from, *normals, T, s) : icp(from, target.cloud(), target.tree(), T, s);
+    if (normals) {
+      out.estimated_normals = normals->estimated();
+      out.undefined_normals = normals->undefined();
+    }
+    append(out, r, s);
+    return r;
+  };
+
+  IcpSettings last;
+  last.method = settings.method;
+  last.threads = settings.threads;
+  last.termination = settings.termination;
+  if (!automatic) {
+    last.rejection = settings.rejection;
+    out.icp = run(source, init, last);
+    return out;
+  }
+
+  // A cloud of duplicated points has no measurable spacing; fall back to a fine fraction of L.
+  const double diagonal = target.diagonal();
+  double spacing = target.spacing();
+  if (!(spacing > 0)) spacing = 1e-4 * diagonal;
+  out.point_spacing = spacing;
+  const double floor = kFinalSpacings * spacing;
+  const PointCloud thin = thinned(source);
+  const PointCloud& coarse_source = thin.empty() ? source : thin;
+
+  Eigen::Isometry3d T = init;
+  IcpSettings coarse = last;
+  coarse.method = IcpMethod::kPointToPlane;
+  coarse.termination = {kCoarseIterations, 1e-4, true, 1e-5, 1e-6};
+  double sigma = 0;
+  double tau = kStartFraction * diagonal;
+  for (int stage = 0; stage < kMaxStages && tau > floor; ++stage, tau *= kShrink) {
+    coarse.rejection = RejectionRule::max_distance(tau);
+    coarse.robust_scale = kKernelFraction * tau;
+    const IcpResult r = run(coarse_source, T, coarse);
+    if (r.stop_reason == StopReason::kTooFewCorrespondences) break;
+    T = r.T_target_source;
+    sigma = r.rms;  // point-to-plane RMS: the noise along the normal once settled
+  }
+  tau = std::max(floor, kFinalSigmas * sigma);
+  last.rejection = RejectionRule::max_distance(tau);
+  last.robust_scale = kKernelFraction * tau;
+  out.icp = run(source, T, last);
+  return out;
+}
+
+RefineResult refine(const PointCloud& source, const PointCloud& target,
+                    const Eigen::Isometry3d& init, const RefineSettings& settings) {
+  check_registrable(source, "source");
+  RefineTarget prepared(target, settings.normals, settings.threads);
+  return refine(source, prepared, init, settings);
+}
+
+}  // namespace align3d

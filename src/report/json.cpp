@@ -1,0 +1,152 @@
+#include "align3d/report/json.hpp"
+
+#include "align3d/io/atomic_file.hpp"
+#include "align3d/se3.hpp"
+
+namespace align3d::report {
+namespace {
+
+nlohmann::json refine_json(const RefineResult& r) {
+  nlohmann::json history = nlohmann::json::array();
+  for (const auto& h : r.history)
+    history.push_back({{"rms", h.rms}, {"kept", h.kept}, {"threshold", h.threshold}});
+  nlohmann::json stages = nlohmann::json::array();
+  for (const auto& s : r.stages)
+    stages.push_back({{"metric", s.metric},
+                      {"max_distance", s.max_distance},
+                      {"first_iteration", s.first_iteration},
+                      {"iterations", s.iterations}});
+  nlohmann::json weak = nlohmann::json::array();
+  for (const auto& w : r.icp.degenerate_directions)
+    weak.push_back({{"rotation", to_json(w.rotation)},
+                    {"translation", to_json(w.translation)},
+                    {"strength", w.strength}});
+  return {{"iterations", r.total_iterations},
+          {"converged", r.icp.converged},
+          {"stop_reason", to_string(r.icp.stop_reason)},
+          {"rms", r.icp.rms},
+          {"fitness", r.icp.fitness},
+          {"correspondences", r.icp.correspondences},
+          {"degenerate_directions", weak},
+          {"normals", {{"estimated", r.estimated_normals}, {"undefined", r.undefined_normals}}},
+          {"history", history},
+          {"stages", stages}};
+}
+
+nlohmann::json init_json(const AlignResult& r, const AlignSettings& s) {
+  nlohmann::json candidates = nlohmann::json::array();
+  for (const AlignCandidate& c : r.candidates)
+    candidates.push_back({{"path", c.path},
+                          {"transformation", to_json(c.transformation)},
+                          {"overlap", c.support.overlap},
+                          {"rms", c.rms},
+                          {"weak", c.weak}});
+  return {{"policy", to_string(s.init)},
+          {"path", r.path},
+          {"reason", r.reason},
+          {"candidates", candidates}};
+}
+
+}  // namespace
+
+nlohmann::json to_json(const Eigen::Isometry3d& T) {
+  nlohmann::json rows = nlohmann::json::array();
+  for (int r = 0; r < 4; ++r) {
+    nlohmann::json row = nlohmann::json::array();
+    for (int c = 0; c < 4; ++c) row.push_back(T.matrix()(r, c));
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+nlohmann::json to_json(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
+
+nlohmann::json to_json(const std::vector<Warning>& warnings) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const Warning& w : warnings) out.push_back({{"code", w.code}, {"message", w.message}});
+  return out;
+}
+
+nlohmann::json to_json(const GlobalResult& g) {
+  nlohmann::json j = {{"method", to_string(g.method)},
+                      {"success", g.success},
+                      {"object", to_string(g.object)},
+                      {"voxel", g.voxel},
+                      {"score", g.score},
+                      {"votes", g.votes},
+                      {"overlap", g.overlap},
+                      {"candidates", g.candidates},
+                      {"transformation", to_json(g.T_target_source)},
+                      {"ambiguous", g.ambiguous},
+                      {"message", g.message},
+                      {"time_ms", g.time_ms}};
+  if (g.ambiguous) {
+    j["second_transformation"] = to_json(g.second_T_target_source);
+    j["second_score"] = g.second_score;
+  }
+  return j;
+}
+
+nlohmann::json to_json(const Support& s) {
+  return {{"overlap", s.overlap}, {"object", to_string(s.object)},
+          {"noise", s.noise},     {"spacing", s.spacing},
+          {"reach", s.reach},     {"band", s.band}};
+}
+
+nlohmann::json registration_report(const AlignResult& r, const AlignSettings& s,
+                                   const InputInfo& source, const InputInfo& target,
+                                   const std::optional<Eigen::Isometry3d>& truth) {
+  const Eigen::Isometry3d& T = r.transformation;
+  nlohmann::json j = {{"success", r.success},
+                      {"source", {{"path", source.path}, {"points", source.points}}},
+                      {"target", {{"path", target.path}, {"points", target.points}}},
+                      {"method", to_string(s.refine.method)},
+                      {"rejection", to_string(s.refine.rejection)},
+                      {"init", init_json(r, s)},
+                      {"transformation", to_json(T)},
+                      {"rotation_deg", rad_to_deg(rotation_angle(T.linear()))},
+                      {"translation", to_json(T.translation())},
+                      {"support", to_json(r.support)},
+                      {"warnings", to_json(r.warnings)},
+                      {"timing_ms",
+                       {{"total", r.timings.total_ms},
+                        {"global", r.timings.global_ms},
+                        {"refine", r.timings.refine_ms},
+                        {"support", r.timings.support_ms}}}};
+  if (!r.success) j["failure"] = r.failure;
+  j.update(refine_json(r.refine));
+  if (r.global) j["global"] = to_json(*r.global);
+  if (truth) {
+    const PoseError e = pose_error(T, *truth);
+    j["rotation_error_deg"] = e.rotation_deg;
+    j["translation_error"] = e.translation;
+  }
+  return j;
+}
+
+nlohmann::json rectify_report(const RectifyResult& r, const RectifySettings& s,
+                              const InputInfo& cloud) {
+  return {{"cloud", {{"path", cloud.path}, {"points", cloud.points}}},
+          {"fit", s.robust ? "robust" : "lsq"},
+          {"normal", to_json(r.normal)},
+          {"tilt_before_deg", r.tilt_before_deg},
+          {"tilt_after_deg", r.tilt_after_deg},
+          {"inliers", r.inliers},
+          {"flatness", r.flatness},
+          {"rms", r.rms},
+          {"noise", r.noise},
+          {"transformation", to_json(r.T_level_cloud)},
+          {"warnings", to_json(r.warnings)}};
+}
+
+void write_json(const std::string& path, const nlohmann::json& report, std::ostream& out) {
+  const std::string text = report.dump(2) + "\n";
+  if (path == "-") {
+    out << text;
+    out.flush();
+  } else {
+    io::write_text_atomically(path, text);
+  }
+}
+
+}  // namespace align3d::report
