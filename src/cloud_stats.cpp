@@ -1,6 +1,6 @@
 #include "align3d/cloud_stats.hpp"
 
-#include <Eigen/Eigenvalues>
+#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 #include <vector>
@@ -41,13 +41,30 @@ double point_spacing(const PointCloud& cloud, const KdTree& tree, std::size_t sa
 
 double surface_noise(const PointCloud& cloud, const KdTree& tree, int k, std::size_t samples) {
   const std::size_t n = cloud.size();
-  if (n < 3 || k < 3) return 0.0;
+  if (n < 7 || k < 7) return 0.0;
   std::vector<double> rms;
   std::vector<Neighbor> nb;
   for (std::size_t i = 0; i < n; i += sample_step(n, samples)) {
-    tree.knn_unsorted(cloud.positions[i], static_cast<std::size_t>(k), nb);
-    const auto eig = detail::neighbourhood_pca(cloud.positions, cloud.positions[i], nb);
-    rms.push_back(std::sqrt(std::max(0.0, eig.eigenvalues()(0))));
+    const Eigen::Vector3d& p = cloud.positions[i];
+    tree.knn_unsorted(p, static_cast<std::size_t>(k), nb);
+    if (nb.size() < 7) continue;
+    // Height over the tangent plane of the neighbourhood (its principal axes), fitted by the
+    // quadric h = a u² + b uv + c v² + d u + e v + f: its residuals hold the noise and not the
+    // curvature, which a plane fit would count as noise on a curved part.
+    const auto eig = detail::neighbourhood_pca(cloud.positions, p, nb);
+    const Eigen::Matrix3d axes = eig.eigenvectors();
+    Eigen::MatrixXd A(static_cast<Eigen::Index>(nb.size()), 6);
+    Eigen::VectorXd h(static_cast<Eigen::Index>(nb.size()));
+    for (std::size_t j = 0; j < nb.size(); ++j) {
+      const Eigen::Vector3d d = axes.transpose() * (cloud.positions[nb[j].index] - p);
+      const double u = d(2), v = d(1);  // the two largest axes span the plane, d(0) is the height
+      A.row(static_cast<Eigen::Index>(j)) << u * u, u * v, v * v, u, v, 1.0;
+      h(static_cast<Eigen::Index>(j)) = d(0);
+    }
+    const Eigen::VectorXd coeffs = A.colPivHouseholderQr().solve(h);
+    const double sq = (A * coeffs - h).squaredNorm();
+    // Unbiased for the 6 fitted coefficients.
+    rms.push_back(std::sqrt(sq / static_cast<double>(nb.size() - 6)));
   }
   return median(rms);
 }
@@ -55,13 +72,21 @@ double surface_noise(const PointCloud& cloud, const KdTree& tree, int k, std::si
 double robust_extent(const PointCloud& cloud) {
   const std::size_t n = cloud.size();
   if (n == 0) return 0.0;
-  // Percentiles of at most ~100 000 evenly spaced points: enough for 0.5 % tails.
+  // Percentiles of at most ~100 000 evenly spaced points (enough for 0.5 % tails), along the
+  // cloud's principal axes so that the extent does not change when the cloud turns.
   const std::size_t step = sample_step(n, 100000);
+  std::vector<Eigen::Vector3d> sample;
+  for (std::size_t i = 0; i < n; i += step) sample.push_back(cloud.positions[i]);
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const auto& p : sample) mean += p;
+  mean /= static_cast<double>(sample.size());
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (const auto& p : sample) cov.noalias() += (p - mean) * (p - mean).transpose();
+  const Eigen::Matrix3d axes = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(cov).eigenvectors();
   Eigen::Vector3d low, high;
-  std::vector<double> c;
+  std::vector<double> c(sample.size());
   for (int axis = 0; axis < 3; ++axis) {
-    c.clear();
-    for (std::size_t i = 0; i < n; i += step) c.push_back(cloud.positions[i](axis));
+    for (std::size_t i = 0; i < sample.size(); ++i) c[i] = axes.col(axis).dot(sample[i] - mean);
     const auto at = [&](double q) {
       const auto k = static_cast<std::ptrdiff_t>(std::floor(q * static_cast<double>(c.size() - 1)));
       std::nth_element(c.begin(), c.begin() + k, c.end());

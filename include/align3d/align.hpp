@@ -42,7 +42,7 @@ const char* to_string(InitPolicy p);
 
 // Support below either bound makes an answer weak (see above).
 constexpr double kWeakOverlap = 0.2;
-constexpr double kWeakRms = 3.0;
+constexpr double kWeakRms = 2.5;
 constexpr double kClearlyBetter = 0.05;
 
 struct AlignSettings {

@@ -65,7 +65,6 @@ RefineTarget::RefineTarget(const PointCloud& target, const NormalSettings& norma
   check_registrable(target, "target");
   cloud_ = reordered(target, spatial_order(target.positions));
   tree_ = std::make_unique<KdTree>(cloud_.positions, threads);
-  diagonal_ = bounding_box_diagonal(cloud_);
   if (!cloud_.has_normals()) {
     NormalSettings ns = normals;
     ns.threads = threads;
@@ -80,6 +79,11 @@ const std::vector<Eigen::Vector3d>& RefineTarget::normals(
   if (!cache_) return cloud_.normals;
   cache_->require(indices);
   return cache_->normals();
+}
+
+double RefineTarget::extent() {
+  if (extent_ < 0) extent_ = robust_extent(cloud_);
+  return extent_;
 }
 
 double RefineTarget::spacing() {
@@ -120,8 +124,10 @@ RefineResult refine(const PointCloud& source, RefineTarget& target, const Eigen:
     return out;
   }
 
-  // A cloud of duplicated points has no measurable spacing; fall back to a fine fraction of L.
-  const double diagonal = target.diagonal();
+  // L: the extent of the object, the smaller of the two clouds (cloud_stats.hpp), so that a part
+  // registered into a wide scene is not pulled by clutter within an eighth of the scene's size. A
+  // cloud of duplicated points has no measurable spacing; fall back to a fine fraction of L.
+  const double diagonal = std::min(target.extent(), robust_extent(source));
   double spacing = target.spacing();
   if (!(spacing > 0)) spacing = 1e-4 * diagonal;
   out.point_spacing = spacing;

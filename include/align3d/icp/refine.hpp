@@ -5,8 +5,10 @@
 // rejection (RejectionRule::automatic()) it is a coarse-to-fine schedule that does not let the
 // dominant plane of a conveyor scene capture the estimate (the failure of the median rule on such
 // scenes):
-//   1. scales from the data: L = target bounding-box diagonal, s = target point spacing (median
-//      nearest-neighbour distance), so the same data in mm or m behaves the same;
+//   1. scales from the data: L = the extent of the object, the smaller cloud (robust_extent of
+//      source and target, cloud_stats.hpp: a part registered into a wide scene is not pulled by
+//      clutter an eighth of the scene away), s = target point spacing (median nearest-neighbour
+//      distance), so the same data in mm or m behaves the same;
 //   2. point-to-plane ICP with a maximum correspondence distance τ that starts at L/8 and halves
 //      each time a stage has settled, pairs weighted by a Geman-McClure kernel of scale τ/2, so far
 //      pairs (outliers, the intruder wall) pull little while the distinctive structure (box, cap)
@@ -63,14 +65,14 @@ class RefineTarget {
   const std::vector<Eigen::Vector3d>& normals(const std::vector<std::uint32_t>& indices);
   NormalCache* cache() { return cache_.get(); }  // null when the cloud came with normals
   double spacing();                              // point_spacing(), measured once
-  double diagonal() const { return diagonal_; }  // bounding-box diagonal
+  double extent();                               // robust_extent(), measured once
 
  private:
   PointCloud cloud_;
   std::unique_ptr<KdTree> tree_;
   std::unique_ptr<NormalCache> cache_;
   int normal_k_ = 20;
-  double spacing_ = -1, diagonal_ = 0;
+  double spacing_ = -1, extent_ = -1;
 };
 
 struct StageRecord {
