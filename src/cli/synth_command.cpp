@@ -170,7 +170,8 @@ Command add_synth(CLI::App& app, Streams io) {
   sub->add_option("--points", o->points, "Points in each cloud of the parts scene")
       ->check(CLI::Range(10, 100000000))
       ->capture_default_str();
-  sub->add_option("--instances", o->instances, "Test objects in the bin (--scene bin)")
+  sub->add_option("--instances", o->instances,
+                  "Test objects in the bin (--scene bin; up to 3 fit for any seed)")
       ->check(CLI::Range(0, 20))
       ->capture_default_str();
   sub->add_option("--angle", o->angle, "Azimuth step between the views in degrees (--scene views)")

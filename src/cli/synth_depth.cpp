@@ -6,6 +6,7 @@
 #include <iostream>
 #include <string>
 
+#include "align3d/error.hpp"
 #include "align3d/io/atomic_file.hpp"
 #include "align3d/io/matrix_io.hpp"
 #include "align3d/io/point_cloud_io.hpp"
@@ -99,7 +100,12 @@ nlohmann::json write_bin_scene(const std::filesystem::path& outdir, std::uint64_
   synth::BinSceneSettings s;
   s.seed = seed;
   s.instances = instances;
-  const synth::BinScene scene = synth::make_bin_scene(s);
+  synth::BinScene scene;
+  try {
+    scene = synth::make_bin_scene(s);
+  } catch (const std::invalid_argument& e) {  // too many instances for the bin
+    throw UsageError(std::string("--instances: ") + e.what());
+  }
   write_organized_pcd(outdir / "scene.pcd", scene.cloud);
   io::write_ply(outdir / "model.ply", scene.model);
   write_label_pgm(outdir / "instances.pgm", scene.cloud.width, scene.cloud.height, scene.instance);
@@ -138,7 +144,7 @@ nlohmann::json write_bin_scene(const std::filesystem::path& outdir, std::uint64_
         {"camera_tilt_deg", s.camera_tilt_deg},
         {"bin_size", to_json(s.bin_size)},
         {"bin_wall", s.bin_wall},
-        {"clutter", s.clutter}}}};
+        {"clutter", scene.clutter}}}};
   write_json((outdir / "scene.json").string(), json, std::cout);
   return json;
 }

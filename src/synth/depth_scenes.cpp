@@ -1,6 +1,7 @@
 #include "align3d/synth/depth_scenes.hpp"
 
 #include <cmath>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -58,10 +59,11 @@ double horizontal_reach(const Shape& shape) {
 
 // Places `parts` (given about a vertical axis through their local origin, in any orientation) at
 // a random spot of the bin's floor [lo, hi] (xy) whose footprint clears every placed one, resting
-// on z = floor_z. Returns the world transform applied to them.
-Eigen::Isometry3d place(const std::vector<Shape>& parts, const Eigen::Vector2d& lo,
-                        const Eigen::Vector2d& hi, double floor_z, std::vector<Footprint>& placed,
-                        Random& rng) {
+// on z = floor_z. Returns the world transform applied to them, or nothing when 500 random spots
+// were all taken.
+std::optional<Eigen::Isometry3d> place(const std::vector<Shape>& parts, const Eigen::Vector2d& lo,
+                                       const Eigen::Vector2d& hi, double floor_z,
+                                       std::vector<Footprint>& placed, Random& rng) {
   constexpr double kGap = 4;  // mm between footprints
   constexpr int kTries = 500;
   double radius = 0;
@@ -78,8 +80,7 @@ Eigen::Isometry3d place(const std::vector<Shape>& parts, const Eigen::Vector2d& 
     placed.push_back({c, radius});
     return translation(c.x(), c.y(), floor_z - lowest);
   }
-  throw std::invalid_argument("make_bin_scene: the objects do not fit into the bin (" +
-                              std::to_string(placed.size()) + " placed)");
+  return std::nullopt;
 }
 
 // A random rotation: yaw uniform about z, then a tilt of up to `max_tilt_deg` about a random
@@ -168,11 +169,19 @@ BinScene make_bin_scene(const BinSceneSettings& s) {
     R.linear() = random_attitude(s.max_instance_tilt_deg, rng);
     std::vector<Shape> parts;
     for (const Shape& p : test_object_shapes()) parts.push_back(transformed(p, R));
-    T_world_object.push_back(place(parts, lo, hi, s.bin_wall, placed, rng) * R);
+    const std::optional<Eigen::Isometry3d> T = place(parts, lo, hi, s.bin_wall, placed, rng);
+    if (!T)
+      throw std::invalid_argument("make_bin_scene: " + std::to_string(s.instances) +
+                                  " instances do not fit into the bin (" + std::to_string(k) +
+                                  " placed)");
+    T_world_object.push_back(*T * R);
   }
-  for (int k = 0; k < s.clutter; ++k) {
+  for (int k = 0; k < s.clutter; ++k) {  // clutter only fills the room the instances left
     const Shape part = random_clutter(rng);
-    scene.shapes.push_back(transformed(part, place({part}, lo, hi, s.bin_wall, placed, rng)));
+    if (const auto T = place({part}, lo, hi, s.bin_wall, placed, rng)) {
+      scene.shapes.push_back(transformed(part, *T));
+      ++scene.clutter;
+    }
   }
   scene.shape_instance.assign(scene.shapes.size(), -1);
   for (int k = 0; k < s.instances; ++k)

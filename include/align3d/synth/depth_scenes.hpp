@@ -31,7 +31,9 @@ PointCloud test_object_model(int points = 20000, std::uint64_t seed = 1);
 // `camera_tilt_axis` (horizontal), so the floor is not fronto-parallel; image up is world +y.
 // Inside the bin rest `instances` copies of the test object (random yaw, tilted by up to
 // `max_instance_tilt_deg`, lowest point on the bin's bottom) and `clutter` boxes, cylinders and
-// spheres of random sizes (30–120 mm), none overlapping another (bounding circles apart). The
+// spheres of random sizes (30–120 mm), none overlapping another (bounding circles apart); clutter
+// that finds no free spot is left out. The default bin holds 3 instances for any seed (4 for
+// most). The
 // sensor: camera.hpp's Kinect-like defaults. `seed` draws the placements, the model's samples and
 // (through splitmix64(seed + 1)) the sensor's dropout and noise.
 struct BinSceneSettings {
@@ -58,9 +60,10 @@ struct BinScene {
   PinholeCamera camera;       // with its pose T_world_camera
   std::vector<Shape> shapes;  // world frame: floor, bin, clutter, then the instances' parts
   std::vector<int> shape_instance;  // per shape: the instance it belongs to, −1 for the others
+  int clutter = 0;                  // clutter parts placed (fewer than asked when the bin is full)
 };
 
-// Throws std::invalid_argument for bad settings or when the objects do not fit into the bin.
+// Throws std::invalid_argument for bad settings or when the instances do not fit into the bin.
 BinScene make_bin_scene(const BinSceneSettings& settings = {});
 
 // Range scans of the test object alone (no background), one per azimuth: the camera is on a
