@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cstring>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -11,6 +12,7 @@
 #include "align3d/error.hpp"
 #include "align3d/io/matrix_io.hpp"
 #include "align3d/io/point_cloud_io.hpp"
+#include "align3d/synth/depth_scenes.hpp"
 #include "detail/random.hpp"
 #include "test_util.hpp"
 
@@ -380,6 +382,102 @@ TEST(CliHelp, HelpAndVersionSucceed) {
   EXPECT_NE(help.out.find("--reject"), std::string::npos);
   EXPECT_EQ(run({"--version"}).code, 0);
   EXPECT_EQ(run({}).code, code(ExitCode::kUsage));
+}
+
+// Distance of an object-frame point to the test object's surface (the parts' own distances).
+double test_object_distance(const Eigen::Vector3d& p) {
+  double d = synth::kInfinity;
+  for (const synth::Shape& s : synth::test_object_shapes())
+    d = std::min(d, synth::surface_distance(s, p));
+  return d;
+}
+
+Eigen::Isometry3d json_matrix(const nlohmann::json& j) {
+  Eigen::Matrix4d M;
+  for (int i = 0; i < 4; ++i)
+    for (int k = 0; k < 4; ++k) M(i, k) = j[i][k].get<double>();
+  return Eigen::Isometry3d(M);
+}
+
+// The bin scene read back: an organized 640 × 480 PCD with its NaN, whose labelled pixels the
+// instance files map onto the test object (float32 storage adds ~1e-4 mm at 1 m).
+TEST(CliSynth, BinSceneReadsBackOrganizedWithItsGroundTruth) {
+  test::TempDir d("synth_bin");
+  const CliRun r = run({"synth", "--scene", "bin", d.path().string(), "--instances", "2"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto j = nlohmann::json::parse(read_text(d / "scene.json"));
+  const std::string pcd = read_text(d / "scene.pcd");
+  const std::string layout =
+      "WIDTH 640\nHEIGHT 480\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 307200\nDATA binary\n";
+  const std::size_t data = pcd.find(layout);
+  ASSERT_NE(data, std::string::npos);
+  ASSERT_EQ(pcd.size(), data + layout.size() + 307200 * 12);
+  io::ReadInfo info;
+  const PointCloud cloud = io::read_point_cloud(d / "scene.pcd", &info);
+  EXPECT_EQ(cloud.size() + info.dropped_non_finite, 307200u);
+  EXPECT_EQ(cloud.size(), j["cloud"]["valid_points"].get<std::size_t>());
+  EXPECT_GT(info.dropped_non_finite, 3000u);  // at least the 1 % dropout
+  const PointCloud model = io::read_point_cloud(d / "model.ply");
+  EXPECT_EQ(model.size(), 20000u);
+  EXPECT_TRUE(model.has_normals());
+
+  const std::string labels = read_text(d / "instances.pgm");
+  ASSERT_EQ(labels.substr(0, 15), "P5\n640 480\n255\n");
+  ASSERT_EQ(labels.size(), 15 + 307200u);
+  ASSERT_EQ(j["instances"].size(), 2u);
+  const synth::DepthSensorSettings sensor;
+  for (int k = 0; k < 2; ++k) {
+    const auto& inst = j["instances"][static_cast<std::size_t>(k)];
+    const Eigen::Isometry3d T = io::read_matrix(d / inst["file"].get<std::string>());
+    EXPECT_TRUE(T.isApprox(json_matrix(inst["transformation"]), 1e-12));
+    std::size_t pixels = 0;
+    for (std::size_t i = 0; i < 307200; ++i) {
+      if (static_cast<unsigned char>(labels[15 + i]) != k + 1) continue;
+      ++pixels;
+      float xyz[3];
+      std::memcpy(xyz, pcd.data() + data + layout.size() + 12 * i, 12);  // little-endian host
+      const Eigen::Vector3d p(xyz[0], xyz[1], xyz[2]);
+      ASSERT_TRUE(p.allFinite());
+      ASSERT_LT(test_object_distance(T.inverse() * p), 6 * sensor.sigma(p.z()) + 1e-3);
+    }
+    EXPECT_EQ(pixels, inst["pixels"].get<std::size_t>());
+    EXPECT_GT(pixels, 2000u);
+  }
+  // The floor in the camera frame: the camera 900 mm above it.
+  const Eigen::Vector3d n(j["floor"]["normal"][0], j["floor"]["normal"][1],
+                          j["floor"]["normal"][2]);
+  const Eigen::Vector3d q(j["floor"]["point"][0], j["floor"]["point"][1], j["floor"]["point"][2]);
+  EXPECT_NEAR(n.dot(-q), 900, 1e-9);
+
+  test::TempDir again("synth_bin_again");
+  ASSERT_EQ(run({"synth", "--scene", "bin", again.path().string(), "--instances", "2"}).code, 0);
+  for (const char* f : {"scene.pcd", "model.ply", "instance_0.txt", "instance_1.txt",
+                        "instances.pgm", "scene.json"})
+    EXPECT_EQ(read_text(again / f), read_text(d / f)) << f;
+}
+
+TEST(CliSynth, ViewsWritePosesAndPairsThatAgree) {
+  test::TempDir d("synth_views");
+  const CliRun r =
+      run({"synth", "--scene", "views", d.path().string(), "--angle", "90", "--views", "3"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto j = nlohmann::json::parse(read_text(d / "scene.json"));
+  ASSERT_EQ(j["views"].size(), 3u);
+  ASSERT_EQ(j["pairs"].size(), 2u);
+  const Eigen::Isometry3d T0 = io::read_matrix(d / "view_0.txt");
+  const synth::DepthSensorSettings scanner = synth::ObjectViewsSettings{}.sensor;
+  for (int k = 1; k < 3; ++k) {
+    const std::string view = "view_" + std::to_string(k);
+    EXPECT_DOUBLE_EQ(j["views"][static_cast<std::size_t>(k)]["azimuth_deg"].get<double>(),
+                     30 + 90 * k);
+    const Eigen::Isometry3d Tk = io::read_matrix(d / (view + ".txt"));
+    const Eigen::Isometry3d pair = io::read_matrix(d / ("pair_0_" + std::to_string(k) + ".txt"));
+    EXPECT_TRUE(pair.isApprox(T0 * Tk.inverse(), 1e-12));  // view_0 ≈ pair·view_k
+    const PointCloud cloud = io::read_point_cloud(d / (view + ".pcd"));
+    EXPECT_GT(cloud.size(), 10000u);
+    for (const auto& p : cloud.positions)
+      ASSERT_LT(test_object_distance(Tk.inverse() * p), 6 * scanner.sigma(p.z()) + 1e-3);
+  }
 }
 
 }  // namespace

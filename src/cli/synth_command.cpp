@@ -1,4 +1,5 @@
-// align3d synth OUTDIR: the chapter's scene and plates (synth/scenes.hpp), with ground truth.
+// align3d synth OUTDIR: the chapter's scene and plates (synth/scenes.hpp), the parts cell, or the
+// depth-camera scenes (synth/depth_scenes.hpp, written by synth_depth.cpp), with ground truth.
 #include <filesystem>
 #include <iostream>
 
@@ -8,6 +9,7 @@
 #include "align3d/se3.hpp"
 #include "align3d/synth/scenes.hpp"
 #include "common.hpp"
+#include "synth_depth.hpp"
 
 namespace align3d::cli {
 
@@ -19,6 +21,10 @@ struct SynthOptions {
   std::string variant = "chapter";
   std::string scene = "chapter";
   int points = 100000;
+  int instances = 1;
+  double azimuth = 30;
+  double angle = 60;
+  int views = 2;
 };
 
 void make_directory(const std::filesystem::path& outdir) {
@@ -142,7 +148,14 @@ Command add_synth(CLI::App& app, Streams io) {
       "plate.ply (7° tilt), plate_cluttered.ply (20 % clutter) and scene.json. Units: mm.\n"
       "With --scene parts: a benchmark work cell of --points points (floor, back wall, 48 "
       "boxes, cylinders and domes; the scan an independent sampling with 70 % overlap, 10°, "
-      "noise 0.1 mm, 2 % outliers): model.ply, scan.ply, ground_truth.txt, scene.json.");
+      "noise 0.1 mm, 2 % outliers): model.ply, scan.ply, ground_truth.txt, scene.json.\n"
+      "With --scene bin: a 640x480 depth camera 0.9 m above a bin with --instances copies of a "
+      "test object and clutter: scene.pcd (organized, NaN kept, camera frame), model.ply, "
+      "instance_K.txt (scene ≈ T·model), instances.pgm (labels), scene.json.\n"
+      "With --scene views: --views range scans of the test object, the first at --azimuth, "
+      "then every --angle degrees: "
+      "view_K.pcd (organized, own camera frame), model.ply, view_K.txt (view_K ≈ T·model), "
+      "pair_0_K.txt (view_0 ≈ T·view_K), scene.json.");
   sub->add_option("OUTDIR", o->outdir, "Output directory (created if missing)")->required();
   sub->add_option("--seed", o->seed, "Random seed; the same seed writes the same bytes")
       ->capture_default_str();
@@ -150,13 +163,44 @@ Command add_synth(CLI::App& app, Streams io) {
                   "Scene geometry: chapter, or a harder variant for testing registration")
       ->check(CLI::IsMember({"chapter", "wide-plane", "small-features", "large-offset", "extreme"}))
       ->capture_default_str();
-  sub->add_option("--scene", o->scene, "chapter (the conveyor scene and plates) or parts")
-      ->check(CLI::IsMember({"chapter", "parts"}))
+  sub->add_option("--scene", o->scene,
+                  "chapter (the conveyor scene and plates), parts, bin or views")
+      ->check(CLI::IsMember({"chapter", "parts", "bin", "views"}))
       ->capture_default_str();
   sub->add_option("--points", o->points, "Points in each cloud of the parts scene")
       ->check(CLI::Range(10, 100000000))
       ->capture_default_str();
+  sub->add_option("--instances", o->instances,
+                  "Test objects in the bin (--scene bin; up to 3 fit for any seed)")
+      ->check(CLI::Range(0, 20))
+      ->capture_default_str();
+  sub->add_option("--angle", o->angle, "Azimuth step between the views in degrees (--scene views)")
+      ->check(CLI::Range(0.0, 360.0))
+      ->capture_default_str();
+  sub->add_option("--azimuth", o->azimuth, "Azimuth of the first view in degrees (--scene views)")
+      ->check(CLI::Range(-360.0, 360.0))
+      ->capture_default_str();
+  sub->add_option("--views", o->views, "Number of views (--scene views)")
+      ->check(CLI::Range(1, 360))
+      ->capture_default_str();
   return {sub, [o, io] {
+            if (o->scene == "bin") {
+              make_directory(o->outdir);
+              const nlohmann::json j = write_bin_scene(o->outdir, o->seed, o->instances);
+              io.out << "wrote " << o->outdir << ": scene.pcd " << j["cloud"]["width"] << "x"
+                     << j["cloud"]["height"] << " (" << j["cloud"]["valid_points"]
+                     << " valid points), model " << j["model"]["points"] << " points, "
+                     << j["instances"].size() << " instance(s)\n";
+              return 0;
+            }
+            if (o->scene == "views") {
+              make_directory(o->outdir);
+              const nlohmann::json j =
+                  write_object_views(o->outdir, o->seed, o->azimuth, o->angle, o->views);
+              io.out << "wrote " << o->outdir << ": " << j["views"].size() << " views " << o->angle
+                     << "° apart, model " << j["model"]["points"] << " points\n";
+              return 0;
+            }
             if (o->scene == "parts") {
               const nlohmann::json j = write_parts_scene(o->outdir, o->seed, o->points);
               io.out << "wrote " << o->outdir << ": model " << j["model"]["points"]
