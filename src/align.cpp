@@ -75,19 +75,26 @@ bool clearly_better(const AlignCandidate& b, const AlignCandidate& a, bool a_fai
   return b.support.overlap >= a.support.overlap - kClearlyBetter && b.rms < a.rms / 1.5;
 }
 
+// Is ICP run the other way round (align.hpp)?
+bool reverse_icp(const PointCloud& source, const PointCloud& target) {
+  return robust_extent(target) > kReverseExtentRatio * robust_extent(source);
+}
+
 class Pipeline {
  public:
   Pipeline(const PointCloud& source, const PointCloud& target, const AlignSettings& s)
-      : source_(source),
-        target_cloud_(target),
+      : source_((check_registrable(source, "source"), source)),
+        target_cloud_((check_registrable(target, "target"), target)),
         s_(s),
-        target_((check_registrable(source, "source"), target), s.refine.normals, s.threads) {
+        reversed_(reverse_icp(source, target)),
+        fixed_(reversed_ ? source : target, s.refine.normals, s.threads) {
     refine_ = s.refine;
     refine_.threads = s.threads;
     global_ = s.global;
     global_.threads = s.threads;
     global_.seed = s.seed;
     if (s.ppf_model) global_.method = GlobalMethod::kPpf;
+    out_.reversed = reversed_;
   }
 
   AlignResult run();
@@ -100,14 +107,16 @@ class Pipeline {
   AlignCandidate refine_from(const Eigen::Isometry3d& init, const std::string& path,
                              RefineResult& r);
   GlobalResult run_global();
+  AlignCandidate refine_global(RefineResult& r);
   void keep(const AlignCandidate& c, RefineResult r);
 
   const PointCloud& source_;
   const PointCloud& target_cloud_;
   const AlignSettings& s_;
+  bool reversed_;       // ICP moves the target onto the source (align.hpp)
+  RefineTarget fixed_;  // the cloud ICP moves onto: the target, or the source when reversed
   RefineSettings refine_;
   GlobalSettings global_;
-  RefineTarget target_;
   std::unique_ptr<SupportMeter> meter_;
   AlignResult out_;
   std::size_t steps_done_ = 0;
@@ -115,13 +124,19 @@ class Pipeline {
 
 AlignCandidate Pipeline::refine_from(const Eigen::Isometry3d& init, const std::string& path,
                                      RefineResult& r) {
-  step(path == "global" ? "icp from the global pose" : "icp from the initial pose");
+  step("icp from the " + (path == "initial" ? std::string("initial") : path) + " pose");
   auto start = Clock::now();
-  r = refine(source_, target_, init, refine_);
+  r = reversed_ ? refine(target_cloud_, fixed_, init.inverse(), refine_)
+                : refine(source_, fixed_, init, refine_);
+  const Eigen::Isometry3d T = reversed_ ? r.icp.T_target_source.inverse() : r.icp.T_target_source;
   out_.timings.refine_ms += ms_since(start);
   start = Clock::now();
-  if (!meter_) meter_ = std::make_unique<SupportMeter>(source_, target_, s_.threads);
-  AlignCandidate c{path, r.icp.T_target_source, meter_->measure(r.icp.T_target_source), r.icp.rms};
+  if (!meter_)
+    meter_ = reversed_ ? std::make_unique<SupportMeter>(fixed_.cloud(), target_cloud_, s_.threads,
+                                                        &fixed_.tree(), nullptr)
+                       : std::make_unique<SupportMeter>(source_, fixed_.cloud(), s_.threads,
+                                                        nullptr, &fixed_.tree());
+  AlignCandidate c{path, T, meter_->measure(T), r.icp.rms};
   c.weak = !weaknesses(r, c.support).empty();
   out_.timings.support_ms += ms_since(start);
   out_.candidates.push_back(c);
@@ -159,6 +174,31 @@ void Pipeline::keep(const AlignCandidate& c, RefineResult r) {
         "rejection auto)";
 }
 
+// ICP from the global pose and, when the global stage found a distinct runner-up, from that too;
+// the better supported answer is returned in `best` / `r`. The ambiguity stands (a warning) only
+// when neither answer is clearly better supported than the other.
+AlignCandidate Pipeline::refine_global(RefineResult& r) {
+  AlignCandidate best = refine_from(out_.global->T_target_source, "global", r);
+  bool resolved = !out_.global->ambiguous;
+  if (out_.global->ambiguous) {
+    RefineResult r2;
+    const AlignCandidate second =
+        refine_from(out_.global->second_T_target_source, "global runner-up", r2);
+    const bool failed = r.icp.stop_reason == StopReason::kTooFewCorrespondences;
+    if (clearly_better(second, best, failed)) {
+      best = second;
+      r = std::move(r2);
+      resolved = true;
+    } else {
+      resolved = clearly_better(best, second, false);
+    }
+  }
+  if (!resolved)
+    out_.warnings.push_back({"ambiguous", "global registration: " + out_.global->message +
+                                              "; ICP from either pose is supported alike"});
+  return best;
+}
+
 AlignResult Pipeline::run() {
   const auto start = Clock::now();
   const InitPolicy policy = s_.init;
@@ -174,7 +214,7 @@ AlignResult Pipeline::run() {
       out_.global = run_global();
       if (out_.global->success) {
         RefineResult r2;
-        const AlignCandidate second = refine_from(out_.global->T_target_source, "global", r2);
+        const AlignCandidate second = refine_global(r2);
         if (clearly_better(second, first, !out_.success)) keep(second, std::move(r2));
       } else {
         out_.warnings.push_back({"global_failed",
@@ -190,11 +230,11 @@ AlignResult Pipeline::run() {
       out_.timings.total_ms = ms_since(start);
       return std::move(out_);
     }
-    const AlignCandidate c = refine_from(out_.global->T_target_source, "global", r);
+    const AlignCandidate c = refine_global(r);
     keep(c, std::move(r));
   }
-  if (out_.global && out_.path == "global" && out_.global->ambiguous)
-    out_.warnings.push_back({"ambiguous", "global registration: " + out_.global->message});
+  if (out_.path == "initial")  // an ambiguity of a global answer not kept does not concern it
+    std::erase_if(out_.warnings, [](const Warning& w) { return w.code == "ambiguous"; });
   if (out_.success)
     for (Warning& w : weaknesses(out_.refine, out_.support)) out_.warnings.push_back(std::move(w));
   out_.timings.total_ms = ms_since(start);

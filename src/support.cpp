@@ -15,62 +15,64 @@ constexpr std::size_t kMaxTested = 50000;
 
 // Every m-th index of [0, n), at most kMaxTested of them.
 std::vector<std::uint32_t> evenly(std::size_t n) {
-  const std::size_t step = (n + kMaxTested - 1) / kMaxTested;
+  const std::size_t step = std::max<std::size_t>(1, (n + kMaxTested - 1) / kMaxTested);
   std::vector<std::uint32_t> out;
-  for (std::size_t i = 0; i < n; i += std::max<std::size_t>(1, step))
-    out.push_back(static_cast<std::uint32_t>(i));
+  for (std::size_t i = 0; i < n; i += step) out.push_back(static_cast<std::uint32_t>(i));
   return out;
+}
+
+// `given`, or a tree built into `own`.
+const KdTree* tree_for(const PointCloud& cloud, const KdTree* given, std::unique_ptr<KdTree>& own,
+                       int threads) {
+  if (given) return given;
+  own = std::make_unique<KdTree>(cloud.positions, threads);
+  return own.get();
 }
 
 }  // namespace
 
-SupportMeter::SupportMeter(const PointCloud& source, RefineTarget& target, int threads)
+SupportMeter::SupportMeter(const PointCloud& source, const PointCloud& target, int threads,
+                           const KdTree* source_tree, const KdTree* target_tree)
     : source_(source), target_(target), threads_(threads) {
-  source_tree_ = std::make_unique<KdTree>(source.positions, threads);
-  const PointCloud& t = target.cloud();
+  source_tree_ = tree_for(source, source_tree, own_source_tree_, threads);
+  target_tree_ = tree_for(target, target_tree, own_target_tree_, threads);
   const double noise_s = surface_noise(source, *source_tree_);
-  const double noise_t = surface_noise(t, target.tree());
+  const double noise_t = surface_noise(target, *target_tree_);
   base_.noise = std::sqrt(noise_s * noise_s + noise_t * noise_t);
-  base_.spacing = std::max(point_spacing(source, *source_tree_), target.spacing());
+  base_.spacing =
+      std::max(point_spacing(source, *source_tree_), point_spacing(target, *target_tree_));
   base_.reach = kReachSpacings * base_.spacing + kReachSigmas * base_.noise;
   base_.band = std::max(kBandSigmas * base_.noise, kBandSpacings * base_.spacing);
-  base_.object = object_role(source, t);
+  base_.object = object_role(source, target);
+  const bool source_object = base_.object == Role::kSource;
+  NormalSettings ns;
+  ns.threads = threads;
+  object_normals_ = std::make_unique<NormalCache>(
+      source_object ? source : target, source_object ? *source_tree_ : *target_tree_, ns);
 }
 
 SupportMeter::~SupportMeter() = default;
 
 Support SupportMeter::measure(const Eigen::Isometry3d& T) {
   Support out = base_;
-  const PointCloud& t = target_.cloud();
   const bool source_object = base_.object == Role::kSource;
-  const std::vector<std::uint32_t> tested = evenly(source_object ? source_.size() : t.size());
+  const PointCloud& object = source_object ? source_ : target_;
+  const PointCloud& other = source_object ? target_ : source_;
+  const KdTree& other_tree = source_object ? *target_tree_ : *source_tree_;
+  // The object's points in the other cloud's frame.
+  const Eigen::Isometry3d M = source_object ? T : T.inverse();
+  const std::vector<std::uint32_t> tested = evenly(object.size());
+  object_normals_->require(tested);
+  const std::vector<Eigen::Vector3d>& normals = object_normals_->normals();
   const double sq_reach = out.reach * out.reach;
-  const Eigen::Isometry3d T_inv = T.inverse();
-  // Pairs (source index, target index) of the tested object points with a partner within reach.
-  std::vector<std::uint32_t> src(tested.size()), tgt(tested.size());
-  std::vector<unsigned char> found(tested.size(), 0);
-  parallel_for(tested.size(), threads_, [&](std::size_t k) {
-    Neighbor nb;
-    if (source_object) {
-      src[k] = tested[k];
-      found[k] = t.size() && target_.tree().nearest(T * source_.positions[tested[k]], nb, sq_reach);
-      tgt[k] = static_cast<std::uint32_t>(nb.index);
-    } else {
-      tgt[k] = tested[k];
-      found[k] = source_tree_->nearest(T_inv * t.positions[tested[k]], nb, sq_reach);
-      src[k] = static_cast<std::uint32_t>(nb.index);
-    }
-  });
-  std::vector<std::uint32_t> partners;
-  for (std::size_t k = 0; k < tested.size(); ++k)
-    if (found[k]) partners.push_back(tgt[k]);
-  const std::vector<Eigen::Vector3d>& normals = target_.normals(partners);
   const std::size_t on = parallel_reduce(
       tested.size(), threads_, std::size_t{0},
       [&](std::size_t& n, std::size_t k) {
-        if (!found[k]) return;
-        const Eigen::Vector3d d = T * source_.positions[src[k]] - t.positions[tgt[k]];
-        n += std::abs(normals[tgt[k]].dot(d)) <= out.band;
+        const Eigen::Vector3d x = M * object.positions[tested[k]];
+        Neighbor nb;
+        if (!other_tree.nearest(x, nb, sq_reach)) return;
+        const Eigen::Vector3d normal = M.linear() * normals[tested[k]];
+        n += std::abs(normal.dot(other.positions[nb.index] - x)) <= out.band;
       },
       [](std::size_t& a, std::size_t b) { a += b; });
   out.overlap = tested.empty() ? 0.0 : static_cast<double>(on) / static_cast<double>(tested.size());

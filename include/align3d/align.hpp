@@ -16,6 +16,12 @@
 //                   its pose, and the better supported of the two answers is kept: the global one
 //                   only when its overlap is clearly larger (by kClearlyBetter) or equal with a
 //                   clearly smaller RMS. `path` says which answer was kept.
+// ICP direction: when the source is the object and the target is much wider (its robust extent
+// more than kReverseExtentRatio × the source's: a part registered into a scene), ICP runs the other
+// way round, the target onto the source, and its answer is inverted: every scene point near the
+// part then finds a partner on the part's whole surface, where the part's hidden faces would find
+// only clutter and floor in the scene (measured on a generated depth-camera bin: 18° off the
+// right way, 0.16° reversed). `reversed` says so; the refine fields then describe that run.
 // Whatever the path, a result that may be wrong comes with warnings (never silently): ICP hit its
 // iteration cap, free directions, weak overlap, RMS far above the noise, an ambiguous global pose,
 // a global stage that found nothing in auto mode.
@@ -44,6 +50,7 @@ const char* to_string(InitPolicy p);
 constexpr double kWeakOverlap = 0.2;
 constexpr double kWeakRms = 2.5;
 constexpr double kClearlyBetter = 0.05;
+constexpr double kReverseExtentRatio = 2.0;
 
 struct AlignSettings {
   InitPolicy init = InitPolicy::kAuto;
@@ -80,9 +87,12 @@ struct AlignResult {
   bool success = false;
   std::string failure;
   Eigen::Isometry3d transformation = Eigen::Isometry3d::Identity();  // target ≈ T·source
-  std::string path;                        // the answer kept: "initial" or "global"
-  std::string reason;                      // why the auto policy ran the global stage, or empty
-  RefineResult refine;                     // ICP of the kept answer: history, stages, stop reason
+  std::string path;    // the answer kept: "initial" or "global"
+  std::string reason;  // why the auto policy ran the global stage, or empty
+  // ICP of the kept answer: history, stages, stop reason (of the reversed run, target onto source,
+  // when `reversed`).
+  RefineResult refine;
+  bool reversed = false;
   std::optional<GlobalResult> global;      // when the global stage ran
   Support support;                         // of the kept answer
   std::vector<AlignCandidate> candidates;  // every answer considered, in order

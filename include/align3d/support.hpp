@@ -3,14 +3,14 @@
 //
 // Of the two clouds, the object is the one of smaller robust extent (coarse/global.hpp), whichever
 // role it has. At a pose T (target ≈ T·source), an object point is "on" the other cloud's surface
-// when a point of the other cloud lies within `reach` of it and the object point lies within
-// `band` of that point's tangent plane (the target's normal, estimated where needed). `overlap` is
-// the share of the object's points that are on the surface: a wrong local minimum lays part of the
-// object onto the other cloud and leaves the rest off, the right pose lays every overlapping part
-// on it. The distances follow the data, so mm and m behave the same:
+// when a point of the other cloud lies within `reach` of it and within `band` of the object
+// point's tangent plane (its PCA normal, k = 20). `overlap` is the share of the object's points
+// that are on the surface: a wrong local minimum lays part of the object onto the other cloud and
+// leaves the rest off, the right pose lays every overlapping part on it. The distances follow the
+// data, so mm and m behave the same:
 //   s = the larger of the two point spacings (cloud_stats.hpp), σ₀ = √(σ_source² + σ_target²) with
-//   σ the surface noise of each cloud (cloud_stats.hpp: the RMS distance of 20 neighbours to their
-//   plane);  reach = 1.5 s + 3 σ₀,  band = max(3 σ₀, 0.1 s).
+//   σ the surface noise of each cloud (cloud_stats.hpp);  reach = 1.5 s + 3 σ₀,
+//   band = max(3 σ₀, 0.1 s).
 // At most 50 000 object points, evenly spaced, are tested.
 #pragma once
 
@@ -18,8 +18,8 @@
 #include <memory>
 
 #include "align3d/coarse/global.hpp"
-#include "align3d/icp/refine.hpp"
 #include "align3d/kdtree.hpp"
+#include "align3d/normals.hpp"
 #include "align3d/point_cloud.hpp"
 
 namespace align3d {
@@ -32,12 +32,14 @@ struct Support {
   Role object = Role::kTarget;  // which cloud the share is of
 };
 
-// Prepared once for a pair of clouds (the noise, the spacings, a kd-tree of the source), then
-// measures any number of poses. Lifetime: keeps references to `source` and `target`, which must
-// outlive it. Thread-safety: one measure() at a time (it estimates target normals on demand).
+// Prepared once for a pair of clouds (the noise, the spacings, their kd-trees), then measures any
+// number of poses. A tree the caller already has may be passed (it must index that cloud); the
+// others are built. Lifetime: keeps references to the clouds and the given trees, which must
+// outlive it. Thread-safety: one measure() at a time (it estimates normals on demand).
 class SupportMeter {
  public:
-  SupportMeter(const PointCloud& source, RefineTarget& target, int threads = 0);
+  SupportMeter(const PointCloud& source, const PointCloud& target, int threads = 0,
+               const KdTree* source_tree = nullptr, const KdTree* target_tree = nullptr);
   ~SupportMeter();
   SupportMeter(const SupportMeter&) = delete;
   SupportMeter& operator=(const SupportMeter&) = delete;
@@ -46,9 +48,12 @@ class SupportMeter {
 
  private:
   const PointCloud& source_;
-  RefineTarget& target_;
+  const PointCloud& target_;
   int threads_;
-  std::unique_ptr<KdTree> source_tree_;
+  std::unique_ptr<KdTree> own_source_tree_, own_target_tree_;
+  const KdTree* source_tree_;
+  const KdTree* target_tree_;
+  std::unique_ptr<NormalCache> object_normals_;
   Support base_;  // the pose-independent fields
 };
 

@@ -38,9 +38,6 @@ constexpr double kClusterVoxels = 2;  // cluster / distinctness radius of the mo
 constexpr std::size_t kVerifiedClusters = 10;
 constexpr int kRefineIterations = 20;  // per verified cluster
 constexpr int kFinalIterations = 40;   // more for the winner (a plane slides slowly)
-constexpr double kOverlapVoxels = 1.5;
-constexpr double kFitPlaneVoxels = 0.25;
-constexpr double kFitNormalDeg = 20;
 
 // Throws DataError(what, …) unless `down` has enough points, not all on one line.
 void check_usable(const PointCloud& down, const std::string& what, double voxel) {
@@ -130,30 +127,6 @@ Eigen::Isometry3d refine(const PointCloud& source, const PointCloud& target, con
   s.termination = {iterations, 0.0, false, 1e-7, 1e-7 * voxel / bounding_box_diagonal(target)};
   s.threads = threads;
   return icp(source, target, tree, T, s).T_target_source;
-}
-
-// The share of `source` points that T lays onto the target surface: a target point within 1.5
-// voxels, point-to-plane distance below kFitPlaneVoxels and normals within kFitNormalDeg (up to
-// sign). Stricter than overlap_fraction, it tells a fit from a pose that merely lies among target
-// points (a plane slid over a plane, a flipped part).
-double fit_fraction(const PointCloud& source, const PointCloud& target, const KdTree& tree,
-                    const Eigen::Isometry3d& T, double voxel, int threads) {
-  const double sq_radius = (kOverlapVoxels * voxel) * (kOverlapVoxels * voxel);
-  const double max_plane = kFitPlaneVoxels * voxel;
-  const double min_cos = std::cos(deg_to_rad(kFitNormalDeg));
-  const std::size_t fitting = parallel_reduce(
-      source.size(), threads, std::size_t{0},
-      [&](std::size_t& count, std::size_t i) {
-        const Eigen::Vector3d p = T * source.positions[i];
-        Neighbor nb;
-        if (!tree.nearest(p, nb, sq_radius)) return;
-        const Eigen::Vector3d& n = target.normals[nb.index];
-        if (std::abs(n.dot(p - target.positions[nb.index])) < max_plane &&
-            std::abs(n.dot(T.linear() * source.normals[i])) > min_cos)
-          ++count;
-      },
-      [](std::size_t& a, std::size_t b) { a += b; });
-  return static_cast<double>(fitting) / static_cast<double>(source.size());
 }
 
 std::string percent(double share) {
@@ -372,9 +345,10 @@ GlobalResult ppf_match(const PpfModel& model, const PointCloud& scene,
   std::stable_sort(clusters.begin(), clusters.end(),
                    [](const Cluster& a, const Cluster& b) { return a.votes > b.votes; });
 
-  // Verification: refine the strongest clusters and keep the pose that lays most of the scene onto
-  // the model surface (fit_fraction; overlap_fraction alone barely separates a plane slid over a
-  // plane from the true pose).
+  // Verification: refine the strongest clusters and keep the pose that lays most of the model onto
+  // the scene's surface (surface_fit, global.hpp: nearness alone barely separates a plane slid over
+  // a plane from the true pose; counted on the model's side, because a pose that lays a face of the
+  // model on a wide floor lays many scene points onto the model but few of the model's).
   const KdTree model_tree(model.points.positions);
   const std::size_t verified = std::min(kVerifiedClusters, clusters.size());
   std::vector<Eigen::Isometry3d> poses(verified);
@@ -386,16 +360,15 @@ GlobalResult ppf_match(const PpfModel& model, const PointCloud& scene,
     T.linear() = Eigen::Quaterniond(Eigen::Vector4d(cl.q_sum.normalized())).toRotationMatrix();
     T.translation() = cl.x_sum / cl.votes - T.linear() * scene_centre;
     poses[c] = refine(down, model.points, model_tree, T, voxel, kRefineIterations, threads);
-    fits[c] = fit_fraction(down, model.points, model_tree, poses[c], voxel, threads);
+    fits[c] = surface_fit(model.points, down, scene_tree, poses[c].inverse(), voxel, threads);
     if (fits[c] > fits[best]) best = c;
   }
   poses[best] =
       refine(down, model.points, model_tree, poses[best], voxel, kFinalIterations, threads);
-  fits[best] = fit_fraction(down, model.points, model_tree, poses[best], voxel, threads);
+  fits[best] = surface_fit(model.points, down, scene_tree, poses[best].inverse(), voxel, threads);
   result.T_target_source = poses[best];
-  // The model is the object: the overlap is the share of its points the scene explains.
-  result.overlap = overlap_fraction(model.points, scene_tree, poses[best].inverse(),
-                                    kOverlapVoxels * voxel, threads);
+  // The model is the object: the overlap is its fit (global.hpp).
+  result.overlap = fits[best];
   result.score = fits[best];
   result.votes = clusters[best].votes;
   result.candidates = verified;
@@ -405,7 +378,7 @@ GlobalResult ppf_match(const PpfModel& model, const PointCloud& scene,
                      " of the model's points within 1.5 voxels (minimum " +
                      percent(settings.min_overlap) + ")";
 
-  // Ambiguity (coarse/global.hpp): the best-fitting distinct runner-up, compared by fit_fraction.
+  // Ambiguity (coarse/global.hpp): the best-fitting distinct runner-up, compared by the same fit.
   std::size_t second = verified;
   for (std::size_t c = 0; c < verified; ++c) {
     if (c == best) continue;

@@ -61,7 +61,6 @@ class HypothesisStream {
 };
 
 struct Prepared {
-  PointCloud all;   // downsampled
   PointCloud down;  // downsampled, isolated points dropped: what descriptors are computed on
   std::unique_ptr<KdTree> tree;
   std::vector<FpfhDescriptor> features;
@@ -94,8 +93,7 @@ PointCloud drop_isolated(const PointCloud& down, double voxel, int threads) {
 
 Prepared prepare(const PointCloud& cloud, double voxel, const char* what, int threads) {
   Prepared out;
-  out.all = voxel_downsample(cloud, voxel);
-  out.down = drop_isolated(out.all, voxel, threads);
+  out.down = drop_isolated(voxel_downsample(cloud, voxel), voxel, threads);
   const std::string after = " after downsampling to voxel " + fixed(voxel, 4) +
                             " and dropping isolated points; FPFH registration needs at least 10 "
                             "(a smaller voxel keeps more)";
@@ -156,23 +154,32 @@ struct Correspondences {
   std::size_t size() const { return p.size(); }
 };
 
-Correspondences match(const Prepared& source, const Prepared& target, bool mutual, int threads) {
-  const FeatureIndex target_index(target.features);
-  std::vector<std::uint32_t> forward(source.features.size());
+// Each point of the object (global.hpp: the smaller cloud) paired with the nearest descriptor of
+// the other cloud. Matching from the object keeps the correspondences about as many as the
+// object's points and their inlier share about its visible share; matched the other way, a wide
+// scene's thousands of clutter points would bury the few that lie on the object.
+Correspondences match(const Prepared& source, const Prepared& target, Role object, bool mutual,
+                      int threads) {
+  const Prepared& from = object == Role::kSource ? source : target;
+  const Prepared& to = object == Role::kSource ? target : source;
+  const FeatureIndex to_index(to.features);
+  std::vector<std::uint32_t> forward(from.features.size());
   parallel_for(forward.size(), threads,
-               [&](std::size_t i) { forward[i] = target_index.nearest(source.features[i]); });
+               [&](std::size_t i) { forward[i] = to_index.nearest(from.features[i]); });
   std::vector<std::uint32_t> backward;
   if (mutual) {
-    const FeatureIndex source_index(source.features);
-    backward.resize(target.features.size());
+    const FeatureIndex from_index(from.features);
+    backward.resize(to.features.size());
     parallel_for(backward.size(), threads,
-                 [&](std::size_t j) { backward[j] = source_index.nearest(target.features[j]); });
+                 [&](std::size_t j) { backward[j] = from_index.nearest(to.features[j]); });
   }
   Correspondences c;
   for (std::size_t i = 0; i < forward.size(); ++i) {
     if (mutual && backward[forward[i]] != i) continue;
-    c.p.push_back(source.down.positions[i]);
-    c.q.push_back(target.down.positions[forward[i]]);
+    const Eigen::Vector3d& a = from.down.positions[i];
+    const Eigen::Vector3d& b = to.down.positions[forward[i]];
+    c.p.push_back(object == Role::kSource ? a : b);
+    c.q.push_back(object == Role::kSource ? b : a);
   }
   return c;
 }
@@ -352,21 +359,20 @@ GlobalResult fpfh_ransac_register(const PointCloud& source, const PointCloud& ta
   // Steps 1-3: downsample, normals, descriptors.
   const Prepared src = prepare(source, voxel, "source", threads);
   const Prepared tgt = prepare(target, voxel, "target", threads);
-  // The overlap is a share of the object's points (global.hpp): the source's within reach of the
-  // target, or the target's within reach of the moved source.
-  const double reach = kInlierDistance * voxel;
+  // The overlap is a share of the object's points (global.hpp): the source's on the target's
+  // surface, or the target's on the moved source's.
   const auto object_overlap = [&](const Eigen::Isometry3d& T) {
     return result.object == Role::kSource
-               ? overlap_fraction(src.all, *tgt.tree, T, reach, threads)
-               : overlap_fraction(tgt.all, *src.tree, T.inverse(), reach, threads);
+               ? surface_fit(src.down, tgt.down, *tgt.tree, T, voxel, threads)
+               : surface_fit(tgt.down, src.down, *src.tree, T.inverse(), voxel, threads);
   };
   // Step 4: descriptor nearest neighbours.
-  const Correspondences corr = match(src, tgt, settings.mutual_filter, threads);
+  const Correspondences corr = match(src, tgt, result.object, settings.mutual_filter, threads);
 
   const double sq_radius = (kInlierDistance * voxel) * (kInlierDistance * voxel);
   const Distinct distinct{deg_to_rad(settings.distinct_rotation_deg),
                           (kDistinctTranslation * voxel) * (kDistinctTranslation * voxel),
-                          centroid(src.all)};
+                          centroid(src.down)};
   auto finish = [&](GlobalResult& r) {
     r.time_ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();

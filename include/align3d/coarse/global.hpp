@@ -9,8 +9,10 @@
 //
 // Defaults follow the object, not the scene: of the two clouds, the one of smaller robust extent
 // (cloud_stats.hpp: the bulk of its points, not a few strays) is the object being found, whichever
-// role it has; the voxel is 1/50 of its extent, the feature radii are multiples of the voxel, and
-// the overlap requirement is a share of its points. So a 15 cm part is found in a 1.5 m
+// role it has. The voxel is 1/50 of its extent, but at least 3 point spacings (the larger spacing
+// of the two clouds: cloud_stats.hpp; a depth camera's sparse, noisy scene needs it); the feature
+// radii are multiples of the voxel; fpfh matches descriptors from the object's points; the
+// overlap requirement is a share of the object's points. So a 15 cm part is found in a 1 m
 // depth-camera scene with the sampling the part needs, and the same data in mm or m behave alike.
 //
 // Honest failure: `success` is false, with a reason, when no pose has enough support; the caller
@@ -34,8 +36,8 @@ inline const char* to_string(GlobalMethod m) { return m == GlobalMethod::kFpfh ?
 
 struct GlobalSettings {
   GlobalMethod method = GlobalMethod::kFpfh;
-  // Voxel size for downsampling both clouds (data units), for every method; 0: the object's
-  // robust extent / 50 (see above). Feature radii are multiples of it.
+  // Voxel size for downsampling both clouds (data units), for every method; 0: from the object's
+  // extent and the spacing (see above). Feature radii are multiples of it.
   double voxel = 0.0;
   std::uint64_t seed = 1;
   int threads = 0;  // 0: all cores; the result does not depend on it
@@ -43,9 +45,9 @@ struct GlobalSettings {
   bool mutual_filter = false;  // keep only mutual descriptor nearest neighbours
   int ransac_iterations = 100000;
   double ransac_confidence = 0.9999;
-  // Success: at the found pose at least this share of the object's downsampled points lies within
-  // 1.5 voxels of the other cloud (and, for fpfh, at least 3 × the minimal sample of inlier
-  // correspondences).
+  // Success: at the found pose at least this share of the object's downsampled points lies on the
+  // other cloud's surface (surface_fit below; and, for fpfh, at least 3 × the minimal sample of
+  // inlier correspondences).
   double min_overlap = 0.15;
   // Ambiguity report (see above).
   double ambiguity_ratio = 0.9;
@@ -66,7 +68,7 @@ struct GlobalResult {
   // ppf, the share of the scene's downsampled points laid onto the model surface ("fit").
   double score = 0;
   double votes = 0;            // ppf: votes of the winning pose cluster (0 for fpfh)
-  double overlap = 0;          // share of the object's downsampled points the pose explains
+  double overlap = 0;          // surface_fit of the object's downsampled points at the pose
   std::size_t candidates = 0;  // hypotheses (fpfh) or pose clusters (ppf) scored
   bool ambiguous = false;
   Eigen::Isometry3d second_T_target_source = Eigen::Isometry3d::Identity();  // when ambiguous
@@ -75,16 +77,19 @@ struct GlobalResult {
   double time_ms = 0;
 };
 
-// The object (the cloud of smaller robust extent) and the voxel in use: settings.voxel, or the
-// object's robust extent / 50.
+// The object (the cloud of smaller robust extent) and the voxel in use: settings.voxel, or the rule
+// above.
 Role object_role(const PointCloud& source, const PointCloud& target);
 double global_voxel(const PointCloud& source, const PointCloud& target,
                     const GlobalSettings& settings);
 
-// The share of `cloud` points that T brings within `radius` of a point of the cloud `tree`
-// indexes.
-double overlap_fraction(const PointCloud& cloud, const KdTree& tree, const Eigen::Isometry3d& T,
-                        double radius, int threads = 0);
+// The share of `cloud` points that T lays onto the surface of `other` (`other_tree` indexes it;
+// both clouds have normals): a point of `other` within 1.5 voxels, the moved point within 0.25
+// voxel of its tangent plane, and normals within 20° up to sign. Stricter than mere nearness, it
+// tells a fit from a pose that only lies among the other cloud's points (a plane slid over a
+// plane, a flipped part, a cloud of scattered points that any coarse pose comes near).
+double surface_fit(const PointCloud& cloud, const PointCloud& other, const KdTree& other_tree,
+                   const Eigen::Isometry3d& T, double voxel, int threads = 0);
 
 // Runs the chosen method. Throws DataError("source"/"target", …) when a cloud is too small or
 // degenerate for descriptors (fewer than 10 points after downsampling, or all points on a line).

@@ -11,13 +11,14 @@
 //   T_model_scene = T_m⁻¹ · R_x(α_s − α_m) · T_s       (T_m, T_s: the moves of m_r, s_r onto x).
 // Every 5th scene point is a reference; its 3 best cells are pose candidates. Candidates are
 // clustered (rotation < 12°, moved scene centroid < 2 voxels; Drost, section 3.5), the 10 clusters
-// with most votes are refined by point-to-point ICP on the downsampled clouds, and the winner is
-// the one that lays most scene points onto the model surface (within 1.5 voxels, point-to-plane
-// distance < 0.25 voxel, normals within 20°): this "fit" separates a plane slid over a plane from
-// the true pose far better than overlap_fraction. Ambiguity compares the same fit: a distinct
-// refined pose (coarse/global.hpp) with fit >= ambiguity_ratio × the winner's sets `ambiguous`, and
-// `score` / `second_score` report those two fits. `overlap` and `success` follow the contract: the
-// share of the model's (the object's) points within 1.5 voxels of the moved scene, >= min_overlap.
+// with most votes are refined by point-to-point ICP (icp/icp.hpp) on the downsampled clouds, and
+// the winner is the one that lays most of the model onto the scene's surface (surface_fit,
+// global.hpp: within 1.5 voxels, 0.25 voxel of the tangent plane, normals within 20°), counted on
+// the model's side: a pose that lays one face of the model on a wide floor lays many scene points
+// onto the model but few of the model's. Ambiguity compares the same fit: a distinct refined pose
+// (coarse/global.hpp) with fit >= ambiguity_ratio × the winner's sets `ambiguous`, and `score` /
+// `second_score` report those two fits. `overlap` (the winner's fit) and `success` follow the
+// contract (>= min_overlap).
 //
 // Normal orientation: the angles depend on the normals' signs, so model and scene normals must be
 // oriented by the same rule, one that turns with the data: away from the cloud's centroid. Parts of
