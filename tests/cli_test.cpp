@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -361,6 +362,39 @@ TEST(CliEvaluate, QuickRunWritesTheTableAndTheBasin) {
   const auto j = nlohmann::json::parse(read_text(d / "evaluation.json"));
   EXPECT_EQ(j["success"].size(), 9u);  // 3 scenes × 3 methods
   EXPECT_EQ(j["basin"].size(), 3u);
+}
+
+// ---- vector and number flags ----
+
+TEST_F(CliBadInput, VectorAndNumberFlags) {
+  const auto rectify = [&](const std::string& up) {
+    return run({"rectify", scene("plate.ply"), "--up", up});
+  };
+  for (const char* up :
+       {"0,0,0", "-0,0,0", "0,0,1,", "1,2", "1,,2", "0,0,nan", "0,0,1e999", "a,b,c", "1;2;3", ""}) {
+    const CliRun r = rectify(up);
+    EXPECT_EQ(r.code, code(ExitCode::kUsage)) << up << ": " << r.err;
+    EXPECT_NE(r.err.find("--up"), std::string::npos) << r.err;
+  }
+  // Any non-zero length is a direction, however small; spaces around numbers are fine.
+  for (const char* up : {"0, 0, 1e-320", "+0,0,2.5"}) {
+    const CliRun r = rectify(up);
+    EXPECT_EQ(r.code, 0) << up << ": " << r.err;
+    EXPECT_NE(r.out.find("tilt 7.00"), std::string::npos) << r.out;
+  }
+  // The plate seen from below: up = -Z turns it over (the tilt is measured from +Z).
+  const CliRun down = rectify("0,0,-1");
+  EXPECT_EQ(down.code, 0) << down.err;
+  EXPECT_NE(down.out.find("tilt 172.99"), std::string::npos) << down.out;  // 180 - 7.00
+
+  test::TempDir d("voxel");
+  for (const char* voxel : {"nan", "inf", "-1", "1e-300"}) {
+    const CliRun r =
+        run({"ppf-model", scene("model.ply"), (d / "m.ppf").string(), "--voxel", voxel});
+    EXPECT_EQ(r.code, code(ExitCode::kUsage)) << voxel << ": " << r.err;
+    EXPECT_NE(r.err.find("--voxel"), std::string::npos) << r.err;
+    EXPECT_FALSE(std::filesystem::exists(d / "m.ppf"));
+  }
 }
 
 TEST(CliHelp, HelpAndVersionSucceed) {

@@ -1,11 +1,12 @@
 #include "common.hpp"
 
-#include <cmath>
-#include <sstream>
+#include <optional>
+#include <string_view>
 
 #include "align3d/error.hpp"
 #include "align3d/io/atomic_file.hpp"
 #include "align3d/io/point_cloud_io.hpp"
+#include "detail/number.hpp"
 
 namespace align3d::cli {
 
@@ -42,24 +43,30 @@ void write_json(const std::string& path, const nlohmann::json& report, std::ostr
 
 Eigen::Vector3d parse_vector(const std::string& text, const std::string& flag) {
   Eigen::Vector3d v;
-  std::stringstream ss(text);
-  std::string part;
-  int i = 0;
-  for (; std::getline(ss, part, ',') && i < 4; ++i) {
-    std::size_t used = 0;
-    double x = 0;
-    try {
-      x = std::stod(part, &used);
-    } catch (const std::exception&) {
-      used = 0;
-    }
-    if (used == 0 || used != part.size() || !std::isfinite(x) || i == 3)
-      throw UsageError(flag + ": expected X,Y,Z (three finite numbers), got '" + text + "'");
-    v[i] = x;
+  std::string_view rest = text;
+  for (int i = 0; i < 3; ++i) {
+    const std::size_t comma = rest.find(',');
+    // Exactly three parts: a fourth ("1,2,3,4") or a trailing comma leaves a comma after the third.
+    const bool last = i == 2;
+    const std::optional<double> x = (last == (comma == std::string_view::npos))
+                                        ? detail::parse_finite(rest.substr(0, comma))
+                                        : std::nullopt;
+    if (!x) throw UsageError(flag + ": expected X,Y,Z (three finite numbers), got '" + text + "'");
+    v[i] = *x;
+    if (!last) rest.remove_prefix(comma + 1);
   }
-  if (i != 3)
-    throw UsageError(flag + ": expected X,Y,Z (three finite numbers), got '" + text + "'");
   return v;
+}
+
+const CLI::Validator& finite_non_negative() {
+  static const CLI::Validator validator(
+      [](const std::string& text) -> std::string {
+        const std::optional<double> v = detail::parse_finite(text);
+        if (v && *v >= 0) return {};
+        return "expected a finite non-negative number, got '" + text + "'";
+      },
+      "finite >= 0");
+  return validator;
 }
 
 }  // namespace align3d::cli

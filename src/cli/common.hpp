@@ -26,8 +26,12 @@ nlohmann::json to_json(const Eigen::Vector3d& v);
 // Writes `report` to `path` ("-" = `out`), pretty-printed, atomically for files.
 void write_json(const std::string& path, const nlohmann::json& report, std::ostream& out);
 
-// Parses "X,Y,Z" (throws UsageError naming `flag`).
+// Parses "X,Y,Z": exactly three finite numbers (throws UsageError naming `flag`).
 Eigen::Vector3d parse_vector(const std::string& text, const std::string& flag);
+
+// For numeric options: CLI11's NonNegativeNumber (and PositiveNumber) let "nan" through (every
+// comparison with NaN is false) and accept "inf"; this requires a finite number >= 0.
+const CLI::Validator& finite_non_negative();
 
 // Subcommands: each adds itself to `app` and returns the runner to call once parsing chose it.
 struct Command {

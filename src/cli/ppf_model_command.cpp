@@ -1,5 +1,9 @@
 // align3d ppf-model MODEL OUT: build the PPF model description once, for many scans.
+#include <sstream>
+#include <stdexcept>
+
 #include "align3d/coarse/ppf.hpp"
+#include "align3d/error.hpp"
 #include "common.hpp"
 
 namespace align3d::cli {
@@ -21,13 +25,22 @@ Command add_ppf_model(CLI::App& app, Streams io) {
   sub->add_option("MODEL", o->model, "Model cloud (the target of later registrations)")->required();
   sub->add_option("OUT", o->out, "Output file for the model description")->required();
   sub->add_option("--voxel", o->voxel, "Voxel size (data units); 0: the model's diagonal / 50")
-      ->check(CLI::NonNegativeNumber)
+      ->check(finite_non_negative())
       ->capture_default_str();
   return {sub, [o, io] {
             const PointCloud model = load_cloud(o->model, io.err);
             GlobalSettings gs;
             gs.voxel = o->voxel;
-            const PpfModel description = build_ppf_model(model, global_voxel(model, gs));
+            PpfModel description;
+            try {
+              description = build_ppf_model(model, global_voxel(model, gs));
+            } catch (const std::invalid_argument& e) {
+              // The one argument the user chose: a voxel so small that the grid overflows.
+              std::ostringstream voxel;
+              voxel << o->voxel;
+              throw UsageError("--voxel " + voxel.str() + " is too small for " + o->model + " (" +
+                               e.what() + ")");
+            }
             save_ppf_model(o->out, description);
             io.out << "wrote " << o->out << " (PPF model of " << o->model << ", voxel "
                    << global_voxel(model, gs) << ")\n";

@@ -36,14 +36,19 @@ Command add_rectify(CLI::App& app, Streams io) {
   sub->add_flag(
       "--robust", o->robust,
       "Find the dominant plane with RANSAC first, then refit on its inliers (clutter-proof)");
-  sub->add_option("--up", o->up, "X,Y,Z: the direction that counts as up (the normal's sign)");
+  CLI::Option* up =
+      sub->add_option("--up", o->up, "X,Y,Z: the direction that counts as up (the normal's sign)");
   sub->add_option("--seed", o->seed, "RANSAC seed (with --robust)")->capture_default_str();
-  return {sub, [o, io] {
-            const PointCloud cloud = load_cloud(o->cloud, io.err);
+  return {sub, [o, io, up] {
             RectifySettings s;
             s.robust = o->robust;
             s.ransac.seed = o->seed;
-            if (!o->up.empty()) s.up = parse_vector(o->up, "--up");
+            if (up->count() > 0) {
+              s.up = parse_vector(o->up, "--up");
+              if (s.up->isZero(0.0))
+                throw UsageError("--up: the zero vector gives no direction, got '" + o->up + "'");
+            }
+            const PointCloud cloud = load_cloud(o->cloud, io.err);
             RectifyResult r;
             try {
               r = rectify(cloud, s);

@@ -21,8 +21,8 @@
 namespace align3d {
 
 struct RectifySettings {
-  bool robust = false;  // find the dominant plane with RANSAC first (clutter-proof)
-  std::optional<Eigen::Vector3d> up;
+  bool robust = false;                // find the dominant plane with RANSAC first (clutter-proof)
+  std::optional<Eigen::Vector3d> up;  // any finite non-zero length; else std::invalid_argument
   RansacPlaneSettings ransac;
 };
 
