@@ -140,6 +140,9 @@ struct Encoding {
 };
 
 std::vector<Encoding> encodings() {
+  const auto write_by_extension = [](const fs::path& p, const PointCloud& c) {
+    write_point_cloud(p, c);
+  };
   return {
       {"PlyAscii", ".ply",
        [](const fs::path& p, const PointCloud& c) { write_ply(p, c, PlyEncoding::kAscii); }},
@@ -161,10 +164,10 @@ std::vector<Encoding> encodings() {
        }},
       {"Xyz", ".xyz", [](const fs::path& p, const PointCloud& c) { write_xyz(p, c); }, false,
        false},
-      {"WritePointCloudPly", ".ply", write_point_cloud},
-      {"WritePointCloudPcd", ".PCD", write_point_cloud},
-      {"WritePointCloudTxt", ".txt", write_point_cloud, false, false},
-      {"WritePointCloudCsv", ".csv", write_point_cloud, false, false},
+      {"WritePointCloudPly", ".ply", write_by_extension},
+      {"WritePointCloudPcd", ".PCD", write_by_extension},
+      {"WritePointCloudTxt", ".txt", write_by_extension, false, false},
+      {"WritePointCloudCsv", ".csv", write_by_extension, false, false},
   };
 }
 
@@ -555,6 +558,110 @@ TEST_F(IoTest, PcdViewpointWidthAndHeightAreReported) {
   EXPECT_EQ(info.viewpoint.position, Eigen::Vector3d::Zero());
   EXPECT_EQ(info.width, 1u);
   EXPECT_EQ(info.height, 1u);
+}
+
+// A 4 x 3 depth image with pixels without a return (NaN), written organized and read back.
+class IoOrganizedPcdTest : public IoTest, public ::testing::WithParamInterface<PcdEncoding> {};
+
+TEST_P(IoOrganizedPcdTest, KeepsNaNPixelsInPlaceAndTheViewpoint) {
+  constexpr double nan = std::numeric_limits<double>::quiet_NaN();
+  PointCloud image;
+  std::vector<Eigen::Vector3d> finite;
+  for (int row = 0; row < 3; ++row) {
+    for (int col = 0; col < 4; ++col) {
+      const bool hole = (row * 4 + col) % 5 == 1;  // pixels 1, 6 and 11
+      image.positions.push_back(hole ? Eigen::Vector3d(nan, nan, nan)
+                                     : Eigen::Vector3d(col * 0.25, row * -0.5, 2.0 + col));
+      if (!hole) finite.push_back(image.positions.back());
+    }
+  }
+  PcdLayout layout;
+  layout.width = 4;
+  layout.height = 3;
+  layout.viewpoint.position = Eigen::Vector3d(0.1, -0.2, 1.0 / 3.0);
+  layout.viewpoint.orientation = Eigen::Quaterniond(0.5, 0.5, -0.5, 0.5);
+  const fs::path path = dir_ / "image.pcd";
+  write_pcd(path, image, GetParam(), layout);
+
+  ReadInfo info;
+  const PointCloud cloud = read_point_cloud(path, &info);
+  EXPECT_EQ(cloud.positions, finite);
+  EXPECT_EQ(info.dropped_non_finite, 3u);
+  EXPECT_EQ(info.width, 4u);
+  EXPECT_EQ(info.height, 3u);
+  EXPECT_EQ(info.viewpoint.position, layout.viewpoint.position);  // written with 17 digits
+  EXPECT_LT((info.viewpoint.orientation.coeffs() - layout.viewpoint.orientation.coeffs()).norm(),
+            1e-15);
+
+  // The holes sit in their pixels: in binary, record i is bytes [12 i, 12 i + 12) of the body.
+  if (GetParam() != PcdEncoding::kBinary) return;
+  std::ifstream in(path, std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::size_t body = bytes.find("DATA binary\n") + 12;
+  ASSERT_EQ(bytes.size(), body + 12 * 12);
+  for (std::size_t i = 0; i < 12; ++i) {
+    float x = 0;
+    std::memcpy(&x, bytes.data() + body + 12 * i, sizeof(float));
+    EXPECT_EQ(std::isnan(x), i % 5 == 1) << "pixel " << i;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(AllEncodings, IoOrganizedPcdTest,
+                         ::testing::Values(PcdEncoding::kAscii, PcdEncoding::kBinary,
+                                           PcdEncoding::kBinaryCompressed));
+
+TEST_F(IoTest, UnorganizedPcdLeavesNonFinitePointsOut) {
+  PointCloud cloud = random_cloud(20, true, 3);
+  cloud.positions[4].y() = std::numeric_limits<double>::infinity();
+  cloud.positions[9].x() = std::numeric_limits<double>::quiet_NaN();
+  for (const PcdEncoding encoding :
+       {PcdEncoding::kAscii, PcdEncoding::kBinary, PcdEncoding::kBinaryCompressed}) {
+    write_pcd(dir_ / "u.pcd", cloud, encoding);
+    ReadInfo info;
+    const PointCloud read = read_point_cloud(dir_ / "u.pcd", &info);
+    EXPECT_EQ(info.dropped_non_finite, 0u);
+    EXPECT_EQ(info.width, 18u);
+    ASSERT_EQ(read.size(), 18u);
+    EXPECT_EQ(read.positions[4], to_float32(cloud.positions[5]));
+    EXPECT_EQ(read.positions[17], to_float32(cloud.positions[19]));
+    EXPECT_TRUE(read.has_normals());
+  }
+}
+
+TEST_F(IoTest, OrganizedLayoutMustMatchTheCloud) {
+  const PointCloud cloud = random_cloud(12, false, 1);
+  for (const auto& [width, height] : {std::pair<std::size_t, std::size_t>{5, 3}, {12, 0}, {0, 1}}) {
+    PcdLayout layout;
+    layout.width = width;
+    layout.height = height;
+    EXPECT_THROW(write_pcd(dir_ / "bad.pcd", cloud, PcdEncoding::kBinary, layout),
+                 std::invalid_argument);
+  }
+  EXPECT_TRUE(fs::is_empty(dir_));
+}
+
+TEST_F(IoTest, WritePointCloudHonoursTheSettingsOfItsFormat) {
+  PointCloud image = random_cloud(6, false, 2);
+  image.positions[2].z() = std::numeric_limits<double>::quiet_NaN();
+  WriteSettings settings;
+  settings.pcd = PcdEncoding::kAscii;
+  settings.pcd_layout.width = 3;
+  settings.pcd_layout.height = 2;
+  settings.ply = PlyEncoding::kBinaryBigEndian;
+  write_point_cloud(dir_ / "a.pcd", image, settings);
+  write_point_cloud(dir_ / "a.ply", random_cloud(6, false, 2), settings);
+  ReadInfo info;
+  EXPECT_EQ(read_point_cloud(dir_ / "a.pcd", &info).size(), 5u);
+  EXPECT_EQ(info.height, 2u);
+  std::ifstream pcd(dir_ / "a.pcd");
+  const std::string text((std::istreambuf_iterator<char>(pcd)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("\nWIDTH 3\nHEIGHT 2\n"), std::string::npos);
+  EXPECT_NE(text.find(" nan\n"), std::string::npos);  // z of point 2, kept in place
+  std::ifstream ply(dir_ / "a.ply");
+  std::string line;
+  std::getline(ply, line);
+  std::getline(ply, line);
+  EXPECT_EQ(line, "format binary_big_endian 1.0");
 }
 
 TEST_F(IoTest, CloudFormatByExtension) {

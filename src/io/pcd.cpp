@@ -10,6 +10,7 @@
 #include <memory>
 #include <new>
 #include <optional>
+#include <stdexcept>
 #include <string>
 
 #include "align3d/error.hpp"
@@ -460,60 +461,113 @@ PointCloud read_pcd(BlockReader& in, ReadInfo& info) {
 
 }  // namespace detail
 
-void write_pcd(const std::filesystem::path& path, const PointCloud& cloud, PcdEncoding encoding) {
-  const bool normals = cloud.has_normals();
-  const std::size_t n = cloud.size();
-  const std::size_t fields = normals ? 6 : 3;
+namespace {
+
+// The header of a file holding x y z (and the normals) as float32.
+std::string pcd_header(bool normals, std::size_t width, std::size_t height,
+                       const Viewpoint& viewpoint, PcdEncoding encoding) {
   std::string header = "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\n";
   header += normals ? "FIELDS x y z normal_x normal_y normal_z\nSIZE 4 4 4 4 4 4\n"
                       "TYPE F F F F F F\nCOUNT 1 1 1 1 1 1\n"
                     : "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n";
-  header += "WIDTH " + std::to_string(n) + "\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " +
-            std::to_string(n) + "\nDATA ";
+  header += "WIDTH " + std::to_string(width) + "\nHEIGHT " + std::to_string(height) + "\nVIEWPOINT";
+  const Eigen::Quaterniond& q = viewpoint.orientation;
+  for (const double v : {viewpoint.position.x(), viewpoint.position.y(), viewpoint.position.z(),
+                         q.w(), q.x(), q.y(), q.z()}) {
+    header += ' ';
+    detail::append_general(header, v, 17);  // exact
+  }
+  header += "\nPOINTS " + std::to_string(width * height) + "\nDATA ";
   header += encoding == PcdEncoding::kAscii    ? "ascii\n"
             : encoding == PcdEncoding::kBinary ? "binary\n"
                                                : "binary_compressed\n";
+  return header;
+}
+
+// binary_compressed, one column per field (see read_compressed). The columns are compressed a
+// block at a time and written as they come, the sizes patched in at the end: concatenated LZF
+// streams are one valid stream (every reference stays inside its own block), so memory stays at
+// one block whatever the cloud's size.
+template <typename Kept, typename Value>
+void write_compressed(std::ostream& out, const std::string& header, std::size_t size,
+                      std::size_t fields, const Kept& kept, const Value& value) {
+  constexpr std::size_t kBlock = std::size_t{1} << 20;
+  out.write(header.data(), std::ssize(header));
+  const std::streampos sizes_at = out.tellp();
+  out.write("\0\0\0\0\0\0\0\0", 8);
+  std::string raw, packed(kBlock + kBlock / 16 + 64, '\0');
+  std::uint64_t raw_bytes = 0, packed_bytes = 0;
+  const auto compress = [&] {
+    if (raw.empty()) return;
+    const unsigned int n = lzf_compress(raw.data(), static_cast<unsigned int>(raw.size()),
+                                        packed.data(), static_cast<unsigned int>(packed.size()));
+    // Incompressible input grows by one control byte per 32 literals: the buffer always suffices.
+    if (n == 0) throw std::logic_error("write_pcd: LZF compression failed");
+    out.write(packed.data(), n);
+    raw_bytes += raw.size();
+    packed_bytes += n;
+    raw.clear();
+  };
+  raw.reserve(kBlock);
+  for (std::size_t f = 0; f < fields; ++f) {
+    for (std::size_t i = 0; i < size; ++i) {
+      if (!kept(i)) continue;
+      detail::append_bytes(raw, value(i, f), kSwap);
+      if (raw.size() >= kBlock) compress();
+    }
+  }
+  compress();
+  std::string sizes;
+  detail::append_bytes(sizes, static_cast<std::uint32_t>(packed_bytes), kSwap);
+  detail::append_bytes(sizes, static_cast<std::uint32_t>(raw_bytes), kSwap);
+  out.seekp(sizes_at);
+  out.write(sizes.data(), std::ssize(sizes));
+}
+
+}  // namespace
+
+void write_pcd(const std::filesystem::path& path, const PointCloud& cloud, PcdEncoding encoding,
+               const PcdLayout& layout) {
+  const bool organized = layout.width != 0 || layout.height != 0;
+  if (organized &&
+      (layout.width == 0 || layout.height == 0 || layout.width != cloud.size() / layout.height ||
+       layout.width * layout.height != cloud.size())) {
+    throw std::invalid_argument(
+        "write_pcd: an organized layout of " + std::to_string(layout.width) + " x " +
+        std::to_string(layout.height) + " points for a cloud of " + std::to_string(cloud.size()));
+  }
+  // Unorganized, a point without finite coordinates carries nothing; organized, it holds its pixel.
+  const auto kept = [&](std::size_t i) { return organized || cloud.positions[i].allFinite(); };
+  std::size_t n = cloud.size();
+  if (!organized)
+    n = static_cast<std::size_t>(
+        std::count_if(cloud.positions.begin(), cloud.positions.end(),
+                      [](const Eigen::Vector3d& p) { return p.allFinite(); }));
+  const bool normals = cloud.has_normals();
+  const std::size_t fields = normals ? 6 : 3;
+  const std::string header = pcd_header(normals, organized ? layout.width : n,
+                                        organized ? layout.height : 1, layout.viewpoint, encoding);
   const auto value = [&](std::size_t i, std::size_t f) {
     return detail::to_float(f < 3 ? cloud.positions[i][static_cast<int>(f)]
                                   : cloud.normals[i][static_cast<int>(f - 3)]);
   };
 
   if (encoding == PcdEncoding::kBinaryCompressed) {
-    // Compressed up front so that a failure leaves no temporary file behind.
-    const std::uint64_t raw_bytes = std::uint64_t{n} * fields * sizeof(float);
-    if (raw_bytes > std::numeric_limits<std::uint32_t>::max()) {
+    if (std::uint64_t{n} * fields * sizeof(float) > std::numeric_limits<std::uint32_t>::max()) {
       throw OutputError(path.string() + ": cannot write: " + std::to_string(n) +
                         " points exceed binary_compressed's 4 GiB limit (use binary)");
     }
-    std::string columns;
-    columns.reserve(raw_bytes);
-    for (std::size_t f = 0; f < fields; ++f) {
-      for (std::size_t i = 0; i < n; ++i) detail::append_bytes(columns, value(i, f), kSwap);
-    }
-    // Incompressible input grows by one control byte per 32 literals, plus a little slack.
-    std::string packed(raw_bytes + raw_bytes / 16 + 64, '\0');
-    const unsigned int packed_bytes =
-        raw_bytes == 0 ? 0
-                       : lzf_compress(columns.data(), static_cast<unsigned int>(raw_bytes),
-                                      packed.data(), static_cast<unsigned int>(packed.size()));
-    if (raw_bytes != 0 && packed_bytes == 0) {
-      throw OutputError(path.string() + ": cannot write: LZF compression failed");
-    }
     write_atomically(path, [&](std::ostream& out) {
-      std::string prefix = header;
-      detail::append_bytes(prefix, static_cast<std::uint32_t>(packed_bytes), kSwap);
-      detail::append_bytes(prefix, static_cast<std::uint32_t>(raw_bytes), kSwap);
-      out.write(prefix.data(), static_cast<std::streamsize>(prefix.size()));
-      out.write(packed.data(), static_cast<std::streamsize>(packed_bytes));
+      write_compressed(out, header, cloud.size(), fields, kept, value);
     });
     return;
   }
-
   write_atomically(path, [&](std::ostream& out) {
     detail::ChunkedOutput output(out);
     std::string& buffer = output.buffer();
     buffer += header;
-    for (std::size_t i = 0; i < n; ++i) {
+    for (std::size_t i = 0; i < cloud.size(); ++i) {
+      if (!kept(i)) continue;
       for (std::size_t f = 0; f < fields; ++f) {
         if (encoding == PcdEncoding::kAscii) {
           detail::append_shortest(buffer, value(i, f));

@@ -152,7 +152,8 @@ PointCloud read_point_cloud(const std::filesystem::path& path, ReadInfo* info) {
   return cloud;
 }
 
-void write_point_cloud(const std::filesystem::path& path, const PointCloud& cloud) {
+void write_point_cloud(const std::filesystem::path& path, const PointCloud& cloud,
+                       const WriteSettings& settings) {
   const std::optional<CloudFormat> format = cloud_format(path);
   if (!format) {
     throw OutputError(path.string() +
@@ -160,9 +161,9 @@ void write_point_cloud(const std::filesystem::path& path, const PointCloud& clou
   }
   switch (*format) {
     case CloudFormat::kPly:
-      return write_ply(path, cloud, PlyEncoding::kBinaryLittleEndian);
+      return write_ply(path, cloud, settings.ply);
     case CloudFormat::kPcd:
-      return write_pcd(path, cloud, PcdEncoding::kBinary);
+      return write_pcd(path, cloud, settings.pcd, settings.pcd_layout);
     case CloudFormat::kXyz:
       return write_xyz(path, cloud);
   }

@@ -73,15 +73,35 @@ enum class PcdEncoding { kAscii, kBinary, kBinaryCompressed };
 void write_ply(const std::filesystem::path& path, const PointCloud& cloud,
                PlyEncoding encoding = PlyEncoding::kBinaryLittleEndian);
 
-// binary_compressed stores its sizes as uint32, so it holds at most 4 GiB of data (~178 million
-// points with normals); larger clouds are an OutputError there.
+// How write_pcd lays the points out, and the sensor pose it records.
+struct PcdLayout {
+  // 0 x 0: unorganized, WIDTH = the points written, HEIGHT 1; a point with a NaN or Inf coordinate
+  // is left out. Otherwise an organized cloud (a depth camera's image): width * height must be the
+  // cloud's size (else std::invalid_argument), row after row, every point written in its place,
+  // NaN ones included (pixels without a return; readers drop and count them).
+  std::size_t width = 0;
+  std::size_t height = 0;
+  Viewpoint viewpoint;  // VIEWPOINT, written exactly (17 digits)
+};
+
+// Writes float32 x y z (and normal_x/y/z when the cloud has normals). binary_compressed stores its
+// sizes as uint32, so it holds at most 4 GiB of data (~178 million points with normals); larger
+// clouds are an OutputError there.
 void write_pcd(const std::filesystem::path& path, const PointCloud& cloud,
-               PcdEncoding encoding = PcdEncoding::kBinary);
+               PcdEncoding encoding = PcdEncoding::kBinary, const PcdLayout& layout = {});
 void write_xyz(const std::filesystem::path& path,
                const PointCloud& cloud);  // %.9g, one point a row
 
-// Writes by extension: .ply binary little-endian, .pcd binary, .xyz/.txt/.csv text (separated by
-// spaces, also for .csv). Any other extension is an OutputError, and nothing is written.
-void write_point_cloud(const std::filesystem::path& path, const PointCloud& cloud);
+// The choices write_point_cloud leaves to the caller, each for its format.
+struct WriteSettings {
+  PlyEncoding ply = PlyEncoding::kBinaryLittleEndian;  // for .ply
+  PcdEncoding pcd = PcdEncoding::kBinary;              // for .pcd
+  PcdLayout pcd_layout;                                // for .pcd
+};
+
+// Writes by extension: .ply, .pcd as `settings` say, .xyz/.txt/.csv text (separated by spaces, also
+// for .csv). Any other extension is an OutputError, and nothing is written.
+void write_point_cloud(const std::filesystem::path& path, const PointCloud& cloud,
+                       const WriteSettings& settings = {});
 
 }  // namespace align3d::io
