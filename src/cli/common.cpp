@@ -10,12 +10,13 @@
 
 namespace align3d::cli {
 
-PointCloud load_cloud(const std::filesystem::path& path, std::ostream& err) {
-  io::ReadInfo info;
-  PointCloud cloud = io::read_point_cloud(path, &info);
-  if (info.dropped_non_finite > 0)
-    err << "align3d: warning: " << path.string() << ": dropped " << info.dropped_non_finite
+PointCloud load_cloud(const std::filesystem::path& path, std::ostream& err, io::ReadInfo* info) {
+  io::ReadInfo read;
+  PointCloud cloud = io::read_point_cloud(path, &read);
+  if (read.dropped_non_finite > 0)
+    err << "align3d: warning: " << path.string() << ": dropped " << read.dropped_non_finite
         << " points with NaN or Inf coordinates\n";
+  if (info != nullptr) *info = read;
   return cloud;
 }
 

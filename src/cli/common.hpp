@@ -8,6 +8,7 @@
 #include <ostream>
 #include <string>
 
+#include "align3d/io/point_cloud_io.hpp"
 #include "align3d/point_cloud.hpp"
 
 namespace align3d::cli {
@@ -17,8 +18,10 @@ struct Streams {
   std::ostream& err;
 };
 
-// Reads a cloud, warning on `err` about dropped non-finite points.
-PointCloud load_cloud(const std::filesystem::path& path, std::ostream& err);
+// Reads a cloud, warning on `err` about dropped non-finite points; `info` receives what the reader
+// reports.
+PointCloud load_cloud(const std::filesystem::path& path, std::ostream& err,
+                      io::ReadInfo* info = nullptr);
 
 nlohmann::json to_json(const Eigen::Isometry3d& T);  // 4 arrays of 4 numbers, row-major
 nlohmann::json to_json(const Eigen::Vector3d& v);
@@ -44,5 +47,6 @@ Command add_rectify(CLI::App& app, Streams io);
 Command add_demo(CLI::App& app, Streams io);
 Command add_ppf_model(CLI::App& app, Streams io);
 Command add_evaluate(CLI::App& app, Streams io);
+Command add_convert(CLI::App& app, Streams io);
 
 }  // namespace align3d::cli
