@@ -65,24 +65,27 @@ std::size_t MemorySource::read(char* out, std::size_t n) {
 
 BlockReader::BlockReader(const std::filesystem::path& path, ByteSource& source,
                          std::size_t capacity)
-    : path_(path), source_(source) {
+    : path_(path),
+      source_(source),
+      capacity_(static_cast<std::size_t>(std::min<std::uint64_t>(capacity, source.size() + 1))) {
   try {
-    buffer_.resize(capacity);
+    // Not zeroed: every byte is read into before it is looked at.
+    buffer_ = std::make_unique_for_overwrite<char[]>(capacity_);
   } catch (const std::bad_alloc&) {
-    fail_out_of_memory(path, "a read buffer of " + std::to_string(capacity) + " bytes");
+    fail_out_of_memory(path, "a read buffer of " + std::to_string(capacity_) + " bytes");
   }
 }
 
 void BlockReader::fill(std::size_t n) {
   if (begin_ > 0) {
-    std::memmove(buffer_.data(), buffer_.data() + begin_, end_ - begin_);
+    std::memmove(buffer_.get(), buffer_.get() + begin_, end_ - begin_);
     base_ += begin_;
     end_ -= begin_;
     begin_ = 0;
   }
-  n = std::min(n, buffer_.size());
+  n = std::min(n, capacity_);
   while (end_ < n && !at_end_) {
-    const std::size_t got = source_.read(buffer_.data() + end_, buffer_.size() - end_);
+    const std::size_t got = source_.read(buffer_.get() + end_, capacity_ - end_);
     if (got == 0) at_end_ = true;
     end_ += got;
   }

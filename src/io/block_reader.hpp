@@ -52,11 +52,13 @@ inline constexpr std::size_t kBlockBytes = std::size_t{4} << 20;
 
 class BlockReader {
  public:
+  // The buffer holds `capacity` bytes, or the whole file (+ 1) if that is smaller: a file's lines
+  // and records cannot be longer than the file.
   BlockReader(const std::filesystem::path& path, ByteSource& source,
               std::size_t capacity = kBlockBytes);
 
   const std::filesystem::path& path() const { return path_; }
-  std::size_t capacity() const { return buffer_.size(); }
+  std::size_t capacity() const { return capacity_; }
   std::uint64_t offset() const { return base_ + begin_; }  // of the next unconsumed byte
   // What the file holds from offset() on, by the size it had when opened.
   std::uint64_t remaining() const {
@@ -64,7 +66,7 @@ class BlockReader {
   }
 
   // The bytes read but not consumed; valid until the next call that reads.
-  std::string_view buffered() const { return {buffer_.data() + begin_, end_ - begin_}; }
+  std::string_view buffered() const { return {buffer_.get() + begin_, end_ - begin_}; }
   // At least n <= capacity() bytes from offset() on (fewer only at the end of the file): the whole
   // buffer, reading more only if fewer than n are buffered.
   std::string_view peek(std::size_t n) {
@@ -84,7 +86,8 @@ class BlockReader {
 
   std::filesystem::path path_;
   ByteSource& source_;
-  std::vector<char> buffer_;
+  std::size_t capacity_;
+  std::unique_ptr<char[]> buffer_;
   std::size_t begin_ = 0, end_ = 0;  // buffered bytes: buffer_[begin_, end_)
   std::uint64_t base_ = 0;           // file offset of buffer_[0]
   bool at_end_ = false;

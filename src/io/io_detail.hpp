@@ -128,9 +128,9 @@ using ScalarTypes = std::tuple<std::int8_t, std::uint8_t, std::int16_t, std::uin
 template <typename F, std::size_t... kIndex>
 constexpr auto visit_scalar(ScalarType type, const F& f, std::index_sequence<kIndex...>) {
   decltype(f(std::int8_t{})) result{};
-  ((static_cast<std::size_t>(type) == kIndex &&
-    (result = f(std::tuple_element_t<kIndex, ScalarTypes>{}), true)) ||
-   ...);
+  static_cast<void>(((static_cast<std::size_t>(type) == kIndex &&
+                      (result = f(std::tuple_element_t<kIndex, ScalarTypes>{}), true)) ||
+                     ...));
   return result;
 }
 

@@ -18,9 +18,12 @@ constexpr std::size_t kOutputBytes = std::size_t{256} << 10;  // handed to the s
 
 LzfResult lzf_decompress_stream(BlockReader& in, std::uint64_t compressed,
                                 std::uint64_t uncompressed, const LzfSink& sink) {
+  // A short output fits whole (then the buffer is never shifted: no run is written past
+  // `uncompressed`).
   std::vector<char> out;
   try {
-    out.resize(kWindow + kOutputBytes);
+    out.resize(static_cast<std::size_t>(
+        std::min<std::uint64_t>(kWindow + kOutputBytes, uncompressed + kLongestRun)));
   } catch (const std::bad_alloc&) {
     fail_out_of_memory(in.path(), "an LZF window");
   }
