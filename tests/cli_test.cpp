@@ -572,7 +572,16 @@ TEST_F(CliBadInput, VectorAndNumberFlags) {
   EXPECT_EQ(down.code, 0) << down.err;
   EXPECT_NE(down.out.find("tilt 172.99"), std::string::npos) << down.out;  // 180 - 7.00
 
+  // Seeds are unsigned: CLI11 alone would take -1 as 2^64 - 1.
   test::TempDir d("voxel");
+  for (const auto& args : std::vector<std::vector<std::string>>{
+           {"rectify", scene("plate.ply"), "--robust", "--seed", "-1"},
+           {"synth", (d / "scene").string(), "--seed", "-2"}}) {
+    const CliRun r = run(args);
+    EXPECT_EQ(r.code, code(ExitCode::kUsage)) << args[0] << ": " << r.err;
+    EXPECT_NE(r.err.find("--seed"), std::string::npos) << r.err;
+  }
+  EXPECT_FALSE(std::filesystem::exists(d / "scene"));
   for (const char* voxel : {"nan", "inf", "-1", "1e-300"}) {
     const CliRun r =
         run({"ppf-model", scene("model.ply"), (d / "m.ppf").string(), "--voxel", voxel});

@@ -38,7 +38,9 @@ Command add_rectify(CLI::App& app, Streams io) {
       "Find the dominant plane with RANSAC first, then refit on its inliers (clutter-proof)");
   CLI::Option* up =
       sub->add_option("--up", o->up, "X,Y,Z: the direction that counts as up (the normal's sign)");
-  sub->add_option("--seed", o->seed, "RANSAC seed (with --robust)")->capture_default_str();
+  sub->add_option("--seed", o->seed, "RANSAC seed (with --robust)")
+      ->check(CLI::NonNegativeNumber)  // CLI11 would wrap -1 to 2^64 - 1
+      ->capture_default_str();
   return {sub, [o, io, up] {
             RectifySettings s;
             s.robust = o->robust;

@@ -139,8 +139,8 @@ PointCloud read_point_cloud(const std::filesystem::path& path, ReadInfo* info) {
   } catch (const std::bad_alloc&) {
     // Allocations that a count announces are reported where they are made (CloudBuilder); this
     // catches any other, e.g. a text file growing while it is read.
-    detail::fail_out_of_memory(
-        path, "the points (out of memory at byte offset " + std::to_string(in.offset()) + ")");
+    detail::fail_out_of_memory(path,
+                               "the points read up to byte offset " + std::to_string(in.offset()));
   }
   if (info != nullptr) *info = read;
   if (cloud.empty()) {
