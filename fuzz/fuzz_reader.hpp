@@ -1,9 +1,10 @@
 // Shared body of the libFuzzer targets for the point-cloud readers. Each input is handed to a
-// format reader as the bytes of a whole file (the readers parse from memory; see
-// src/io/io_detail.hpp), so nothing touches the disk and an over-read of the exact-size buffer is
-// an AddressSanitizer report. An IoError is the expected outcome for bad input; anything else that
-// escapes (another exception, a crash, a leak, a timeout, an allocation beyond -malloc_limit_mb) is
-// a finding. A cloud that is returned must honour point_cloud_io.hpp's contract.
+// format reader as the bytes of a whole file, streamed from memory (src/io/block_reader.hpp) in
+// short reads whose length varies with the input's size, so that block boundaries fall anywhere;
+// nothing touches the disk, and an over-read of the reader's buffer is an AddressSanitizer report.
+// An IoError is the expected outcome for bad input; anything else that escapes (another exception,
+// a crash, a leak, a timeout, an allocation beyond -malloc_limit_mb) is a finding. A cloud that is
+// returned must honour point_cloud_io.hpp's contract.
 #pragma once
 
 #include <cmath>
@@ -30,16 +31,27 @@ inline void check_cloud(const PointCloud& cloud) {
   }
 }
 
-using Reader = PointCloud (*)(const std::filesystem::path&, std::string_view, std::size_t&);
+// A reader of the input as a file of that name: 1 to 97 bytes a read, by the input's size.
+struct FuzzInput {
+  FuzzInput(const char* name, const std::uint8_t* data, std::size_t size)
+      : path(name),
+        source(std::string_view(reinterpret_cast<const char*>(data), size), 1 + size % 97),
+        in(path, source) {}
+  std::filesystem::path path;
+  io::detail::MemorySource source;
+  io::detail::BlockReader in;
+};
+
+using Reader = PointCloud (*)(io::detail::BlockReader&, io::ReadInfo&);
 
 inline int run_reader(Reader reader, const char* name, const std::uint8_t* data, std::size_t size) {
-  if (size == 0) return 0;  // read_file rejects empty files before any reader sees them
-  static const std::filesystem::path path(name);
+  if (size == 0) return 0;  // open_file rejects empty files before any reader sees them
+  FuzzInput input(name, data, size);
   try {
-    std::size_t dropped = 0;
-    const PointCloud cloud =
-        reader(path, std::string_view(reinterpret_cast<const char*>(data), size), dropped);
+    io::ReadInfo info;
+    const PointCloud cloud = reader(input.in, info);
     check_cloud(cloud);
+    if (cloud.size() + info.dropped_non_finite != info.width * info.height) __builtin_trap();
   } catch (const IoError&) {
   }
   return 0;

@@ -6,14 +6,13 @@
 #include <string_view>
 
 #include "align3d/error.hpp"
-#include "io_detail.hpp"
+#include "fuzz_reader.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-  if (size == 0) return 0;  // read_file rejects empty files before the parser sees them
-  static const std::filesystem::path path("fuzz.txt");
+  if (size == 0) return 0;  // open_file rejects empty files before the parser sees them
+  align3d::fuzz::FuzzInput input("fuzz.txt", data, size);
   try {
-    const Eigen::Isometry3d T = align3d::io::detail::parse_matrix(
-        path, std::string_view(reinterpret_cast<const char*>(data), size));
+    const Eigen::Isometry3d T = align3d::io::detail::parse_matrix(input.in);
     const Eigen::Matrix3d R = T.linear();
     if (!T.matrix().allFinite() ||
         (R.transpose() * R - Eigen::Matrix3d::Identity()).norm() > 1e-9 ||

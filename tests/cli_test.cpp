@@ -4,6 +4,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -373,6 +376,231 @@ TEST(CliEvaluate, QuickRunWritesTheTableAndTheBasin) {
   const auto j = nlohmann::json::parse(read_text(d / "evaluation.json"));
   EXPECT_EQ(j["success"].size(), 12u);  // 3 scenes × 4 methods
   EXPECT_EQ(j["basin"].size(), 4u);
+}
+
+// ---- convert ----
+
+struct CloudFile {
+  std::string name, extension, encoding;  // encoding: the --encoding value, "" for text
+  bool normals;                           // the format stores normals
+  io::WriteSettings settings;             // the library's writer settings for the same file
+};
+
+std::vector<CloudFile> cloud_files() {
+  const auto ply = [](io::PlyEncoding e) {
+    io::WriteSettings s;
+    s.ply = e;
+    return s;
+  };
+  const auto pcd = [](io::PcdEncoding e) {
+    io::WriteSettings s;
+    s.pcd = e;
+    return s;
+  };
+  return {{"ply_ascii", ".ply", "ascii", true, ply(io::PlyEncoding::kAscii)},
+          {"ply_le", ".ply", "binary", true, ply(io::PlyEncoding::kBinaryLittleEndian)},
+          {"ply_be", ".PLY", "binary_big_endian", true, ply(io::PlyEncoding::kBinaryBigEndian)},
+          {"pcd_ascii", ".pcd", "ascii", true, pcd(io::PcdEncoding::kAscii)},
+          {"pcd_binary", ".pcd", "binary", true, pcd(io::PcdEncoding::kBinary)},
+          {"pcd_lzf", ".pcd", "binary_compressed", true, pcd(io::PcdEncoding::kBinaryCompressed)},
+          {"xyz", ".xyz", "", false, {}},
+          {"txt", ".txt", "", false, {}},
+          {"csv", ".csv", "", false, {}}};
+}
+
+// What the writers store: float32 (through a volatile float: GCC 12 at -O3 folded the round trip
+// away), or printf's %.9g in the C locale for text.
+Eigen::Vector3d as_written(const Eigen::Vector3d& v, bool float32) {
+  Eigen::Vector3d out;
+  for (int k = 0; k < 3; ++k) {
+    if (float32) {
+      volatile float f = static_cast<float>(v[k]);
+      out[k] = f;
+    } else {
+      char text[40];
+      std::snprintf(text, sizeof text, "%.9g", v[k]);
+      out[k] = std::strtod(text, nullptr);
+    }
+  }
+  return out;
+}
+
+// Every source format and encoding into every target: the target holds the source's points as read
+// by the library, as float32 or as %.9g text, and its normals when both formats store them.
+TEST(CliConvert, RoundTripsBetweenEveryPairOfFormats) {
+  test::TempDir d("convert");
+  Random rng(11);
+  PointCloud cloud;
+  for (int i = 0; i < 200; ++i) {
+    cloud.positions.emplace_back(rng.uniform(-500, 500), rng.uniform(-1, 1), rng.uniform(0, 1e4));
+    cloud.normals.push_back(Eigen::Vector3d(rng.normal(), rng.normal(), rng.normal()).normalized());
+  }
+  const auto files = cloud_files();
+  for (const CloudFile& from : files) {
+    const auto source = d / ("source_" + from.name + from.extension);
+    io::write_point_cloud(source, cloud, from.settings);
+    const PointCloud original = io::read_point_cloud(source);
+    for (const CloudFile& to : files) {
+      SCOPED_TRACE(from.name + " -> " + to.name);
+      const auto target = d / ("target_" + to.name + to.extension);
+      std::vector<std::string> args = {"convert", source.string(), target.string()};
+      if (!to.encoding.empty()) args.insert(args.end(), {"--encoding", to.encoding});
+      const CliRun r = run(args);
+      ASSERT_EQ(r.code, 0) << r.err;
+      EXPECT_EQ(r.err.empty(), from.normals == to.normals || !from.normals) << r.err;
+      const PointCloud read = io::read_point_cloud(target);
+      ASSERT_EQ(read.size(), original.size());
+      for (std::size_t i = 0; i < read.size(); ++i) {
+        const Eigen::Vector3d& p = original.positions[i];
+        ASSERT_EQ(read.positions[i], as_written(p, to.normals)) << "point " << i;
+      }
+      ASSERT_EQ(read.has_normals(), from.normals && to.normals);
+      for (std::size_t i = 0; i < read.normals.size(); ++i) {
+        ASSERT_LT((read.normals[i] - original.normals[i]).norm(), 1e-7) << "normal " << i;
+      }
+    }
+  }
+}
+
+TEST(CliConvert, KeepsAPcdsViewpointAndWarnsAboutDroppedPoints) {
+  test::TempDir d("convert_vp");
+  write_text(d / "in.pcd",
+             "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 2\nHEIGHT 2\n"
+             "VIEWPOINT 1 2 3 0 1 0 0\nPOINTS 4\nDATA ascii\n1 2 3\nnan nan nan\n4 5 6\n7 inf 9\n");
+  const CliRun r = run({"convert", (d / "in.pcd").string(), (d / "out.pcd").string()});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.err.find("warning: " + (d / "in.pcd").string() + ": dropped 2 points"),
+            std::string::npos)
+      << r.err;
+  io::ReadInfo info;
+  EXPECT_EQ(io::read_point_cloud(d / "out.pcd", &info).positions,
+            (std::vector<Eigen::Vector3d>{{1, 2, 3}, {4, 5, 6}}));
+  EXPECT_EQ(info.viewpoint.position, Eigen::Vector3d(1, 2, 3));
+  EXPECT_EQ(info.viewpoint.orientation.coeffs(), Eigen::Vector4d(1, 0, 0, 0));
+  EXPECT_EQ(info.height, 1u);  // the NaN points are gone: no longer organized
+}
+
+TEST(CliConvert, HelpExplainsTheFormatsAndEncodings) {
+  const CliRun help = run({"convert", "--help"});
+  EXPECT_EQ(help.code, 0);
+  for (const char* word : {"binary_compressed", "binary_big_endian", ".xyz", "Normals", "NaN"}) {
+    EXPECT_NE(help.out.find(word), std::string::npos) << word;
+  }
+}
+
+// Each failure: its exit code, one line naming the culprit, and no file at the destination (an
+// existing one untouched, no temporary left).
+class CliConvertError : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    write_text(d_ / "in.ply",
+               "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n"
+               "property float y\nproperty float z\nend_header\n1 2 3\n");
+    write_text(d_ / "old.pcd", "previous content");
+  }
+  void expect_error(const std::string& in, const std::string& out,
+                    const std::vector<std::string>& flags, ExitCode expected,
+                    const std::string& mention) {
+    std::vector<std::string> args = {"convert", in, out};
+    args.insert(args.end(), flags.begin(), flags.end());
+    const CliRun r = run(args);
+    EXPECT_EQ(r.code, code(expected)) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_NE(r.err.find(mention), std::string::npos) << r.err;
+    EXPECT_EQ(read_text(d_ / "old.pcd"), "previous content");
+    std::size_t files = 0;
+    for ([[maybe_unused]] const auto& e : std::filesystem::directory_iterator(d_.path())) ++files;
+    EXPECT_EQ(files, expected_files_) << "a file was written or left behind";
+  }
+  test::TempDir d_{"convert_error"};
+  std::size_t expected_files_ = 2;
+};
+
+TEST_F(CliConvertError, UnknownExtensions) {
+  write_text(d_ / "in.obj", "v 1 2 3\n");
+  expected_files_ = 3;
+  expect_error((d_ / "in.obj").string(), (d_ / "out.ply").string(), {}, ExitCode::kInput,
+               "in.obj: unknown point cloud format '.obj'");
+  expect_error((d_ / "in.ply").string(), (d_ / "out.obj").string(), {}, ExitCode::kOutput,
+               "out.obj: cannot write: unknown point cloud format");
+}
+
+TEST_F(CliConvertError, EncodingsTheFormatLacks) {
+  const std::string in = (d_ / "in.ply").string();
+  expect_error(in, (d_ / "out.pcd").string(), {"--encoding", "binary_big_endian"}, ExitCode::kUsage,
+               "--encoding: PCD has no encoding 'binary_big_endian'");
+  expect_error(in, (d_ / "out.ply").string(), {"--encoding", "binary_compressed"}, ExitCode::kUsage,
+               "--encoding: PLY has no encoding 'binary_compressed'");
+  expect_error(in, (d_ / "out.csv").string(), {"--encoding", "ascii"}, ExitCode::kUsage,
+               "--encoding: .xyz, .txt and .csv files are text");
+}
+
+TEST_F(CliConvertError, UnreadableInputWritesNothing) {
+  expect_error((d_ / "missing.ply").string(), (d_ / "old.pcd").string(), {}, ExitCode::kInput,
+               "missing.ply: file not found");
+  std::filesystem::create_directory(d_ / "folder.xyz");
+  expected_files_ = 3;
+  expect_error((d_ / "folder.xyz").string(), (d_ / "old.pcd").string(), {}, ExitCode::kInput,
+               "folder.xyz: not a regular file");
+  write_text(d_ / "cut.ply",
+             "ply\nformat binary_little_endian 1.0\nelement vertex 2\n"
+             "property float x\nproperty float y\nproperty float z\nend_header\n" +
+                 std::string(20, '\0'));
+  expected_files_ = 4;
+  expect_error((d_ / "cut.ply").string(), (d_ / "old.pcd").string(), {}, ExitCode::kInput,
+               "cut.ply: element 'vertex' announces 2 records of 12 bytes");
+}
+
+TEST_F(CliConvertError, UnwritableOutputLeavesNothing) {
+  const std::string in = (d_ / "in.ply").string();
+  expect_error(in, (d_ / "no_such_folder" / "out.ply").string(), {}, ExitCode::kOutput,
+               "out.ply: cannot write");
+  std::filesystem::create_directory(d_ / "taken.xyz");  // a folder where the file should go
+  expected_files_ = 3;
+  expect_error(in, (d_ / "taken.xyz").string(), {}, ExitCode::kOutput, "taken.xyz: cannot write");
+  EXPECT_TRUE(std::filesystem::is_empty(d_ / "taken.xyz"));
+}
+
+// ---- vector and number flags ----
+
+TEST_F(CliBadInput, VectorAndNumberFlags) {
+  const auto rectify = [&](const std::string& up) {
+    return run({"rectify", scene("plate.ply"), "--up", up});
+  };
+  for (const char* up :
+       {"0,0,0", "-0,0,0", "0,0,1,", "1,2", "1,,2", "0,0,nan", "0,0,1e999", "a,b,c", "1;2;3", ""}) {
+    const CliRun r = rectify(up);
+    EXPECT_EQ(r.code, code(ExitCode::kUsage)) << up << ": " << r.err;
+    EXPECT_NE(r.err.find("--up"), std::string::npos) << r.err;
+  }
+  // Any non-zero length is a direction, however small; spaces around numbers are fine.
+  for (const char* up : {"0, 0, 1e-320", "+0,0,2.5"}) {
+    const CliRun r = rectify(up);
+    EXPECT_EQ(r.code, 0) << up << ": " << r.err;
+    EXPECT_NE(r.out.find("tilt 7.00"), std::string::npos) << r.out;
+  }
+  // The plate seen from below: up = -Z turns it over (the tilt is measured from +Z).
+  const CliRun down = rectify("0,0,-1");
+  EXPECT_EQ(down.code, 0) << down.err;
+  EXPECT_NE(down.out.find("tilt 172.99"), std::string::npos) << down.out;  // 180 - 7.00
+
+  // Seeds are unsigned: CLI11 alone would take -1 as 2^64 - 1.
+  test::TempDir d("voxel");
+  for (const auto& args : std::vector<std::vector<std::string>>{
+           {"rectify", scene("plate.ply"), "--robust", "--seed", "-1"},
+           {"synth", (d / "scene").string(), "--seed", "-2"}}) {
+    const CliRun r = run(args);
+    EXPECT_EQ(r.code, code(ExitCode::kUsage)) << args[0] << ": " << r.err;
+    EXPECT_NE(r.err.find("--seed"), std::string::npos) << r.err;
+  }
+  EXPECT_FALSE(std::filesystem::exists(d / "scene"));
+  for (const char* voxel : {"nan", "inf", "-1", "1e-300"}) {
+    const CliRun r =
+        run({"ppf-model", scene("model.ply"), (d / "m.ppf").string(), "--voxel", voxel});
+    EXPECT_EQ(r.code, code(ExitCode::kUsage)) << voxel << ": " << r.err;
+    EXPECT_NE(r.err.find("--voxel"), std::string::npos) << r.err;
+    EXPECT_FALSE(std::filesystem::exists(d / "m.ppf"));
+  }
 }
 
 TEST(CliHelp, HelpAndVersionSucceed) {

@@ -43,21 +43,24 @@ struct Process {
   std::string out, err;
 };
 
-// Runs the align3d executable with `args`, its stdout and stderr going to files in `logs`.
-Process run_cli(const std::vector<std::string>& args, const fs::path& logs) {
+// Runs the align3d executable with `args`, its stdout and stderr going to files in `logs`; with a
+// `wrapper` (a program and its arguments, e.g. prlimit), runs that with the executable appended.
+Process run_cli(const std::vector<std::string>& args, const fs::path& logs,
+                const std::vector<std::string>& wrapper = {}) {
   const fs::path out = logs / "stdout", err = logs / "stderr";
   posix_spawn_file_actions_t actions;
   posix_spawn_file_actions_init(&actions);
   posix_spawn_file_actions_addopen(&actions, 1, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
   posix_spawn_file_actions_addopen(&actions, 2, err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  std::vector<std::string> argv_text = {ALIGN3D_CLI_PATH};
+  std::vector<std::string> argv_text = wrapper;
+  argv_text.push_back(ALIGN3D_CLI_PATH);
   argv_text.insert(argv_text.end(), args.begin(), args.end());
   std::vector<char*> argv;
   for (auto& a : argv_text) argv.push_back(a.data());
   argv.push_back(nullptr);
   Process p;
   pid_t pid = 0;
-  const int spawned = posix_spawn(&pid, ALIGN3D_CLI_PATH, &actions, nullptr, argv.data(), environ);
+  const int spawned = posix_spawn(&pid, argv[0], &actions, nullptr, argv.data(), environ);
   posix_spawn_file_actions_destroy(&actions);
   if (spawned != 0) return p;
   int status = 0;
@@ -230,6 +233,36 @@ TEST_F(Hostile, AMissingFile) {
   test::TempDir d("missing");
   expect_rejected((d / "scan.pcd").string(), "target", 3, "file not found");
   expect_rejected((d / "truth.txt").string(), "ground-truth", 3, "file not found");
+}
+
+// ---- memory ----
+
+// A binary PLY of `points` points at the origin.
+void write_zero_ply(const fs::path& path, std::size_t points) {
+  std::ofstream out(path, std::ios::binary);
+  out << "ply\nformat binary_little_endian 1.0\nelement vertex " << points
+      << "\nproperty float x\nproperty float y\nproperty float z\nend_header\n";
+  const std::string block(12 * 4096, '\0');
+  for (std::size_t left = points; left > 0; left -= std::min<std::size_t>(left, 4096)) {
+    out.write(block.data(), static_cast<std::streamsize>(12 * std::min<std::size_t>(left, 4096)));
+  }
+}
+
+// 3 million points need 72 MB, more than an address space of 48 MiB leaves: the reader's
+// allocation fails, and the error names the file and what it was for (README, "Exit codes": 4).
+TEST_F(Hostile, RunningOutOfMemoryWhileReadingNamesTheFile) {
+  if (test::kSanitized) GTEST_SKIP() << "an address-space limit does not apply under a sanitizer";
+  if (!fs::exists("/usr/bin/prlimit")) GTEST_SKIP() << "no /usr/bin/prlimit (util-linux)";
+  test::TempDir d("oom");
+  write_zero_ply(d / "big.ply", 3000000);
+  const Process p =
+      run_cli({"rectify", (d / "big.ply").string(), "--output", (d / "out.pcd").string()}, d.path(),
+              {"/usr/bin/prlimit", "--as=" + std::to_string(48 << 20), "--"});
+  ASSERT_TRUE(p.exited) << p.err;
+  EXPECT_EQ(p.code, 4) << p.err;
+  EXPECT_EQ(p.err, "align3d: " + (d / "big.ply").string() +
+                       ": not enough memory for 3000000 points (69 MiB)\n");
+  EXPECT_FALSE(fs::exists(d / "out.pcd"));
 }
 
 }  // namespace

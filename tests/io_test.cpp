@@ -11,18 +11,22 @@
 #include <charconv>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <iterator>
 #include <limits>
 #include <optional>
 #include <random>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "align3d/error.hpp"
 #include "align3d/io/matrix_io.hpp"
 #include "align3d/io/point_cloud_io.hpp"
+#include "test_util.hpp"
 
 namespace align3d::io {
 namespace {
@@ -136,6 +140,9 @@ struct Encoding {
 };
 
 std::vector<Encoding> encodings() {
+  const auto write_by_extension = [](const fs::path& p, const PointCloud& c) {
+    write_point_cloud(p, c);
+  };
   return {
       {"PlyAscii", ".ply",
        [](const fs::path& p, const PointCloud& c) { write_ply(p, c, PlyEncoding::kAscii); }},
@@ -157,10 +164,10 @@ std::vector<Encoding> encodings() {
        }},
       {"Xyz", ".xyz", [](const fs::path& p, const PointCloud& c) { write_xyz(p, c); }, false,
        false},
-      {"WritePointCloudPly", ".ply", write_point_cloud},
-      {"WritePointCloudPcd", ".PCD", write_point_cloud},
-      {"WritePointCloudTxt", ".txt", write_point_cloud, false, false},
-      {"WritePointCloudCsv", ".csv", write_point_cloud, false, false},
+      {"WritePointCloudPly", ".ply", write_by_extension},
+      {"WritePointCloudPcd", ".PCD", write_by_extension},
+      {"WritePointCloudTxt", ".txt", write_by_extension, false, false},
+      {"WritePointCloudCsv", ".csv", write_by_extension, false, false},
   };
 }
 
@@ -524,6 +531,200 @@ TEST_F(IoTest, PcdOlderHeaderWithoutCountHeightOrPoints) {
   EXPECT_EQ(cloud.positions, (std::vector<Eigen::Vector3d>{{1, 2, 3}, {4, 5, 6}}));
 }
 
+// ---- organized PCD, VIEWPOINT ----
+
+TEST_F(IoTest, PcdViewpointWidthAndHeightAreReported) {
+  ReadInfo info;
+  read_point_cloud(write_file("vp.pcd",
+                              "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 2\nHEIGHT 1\n"
+                              "VIEWPOINT 1.5 -2 3e3 0.5 -0.5 0.5 0.5\nPOINTS 2\nDATA ascii\n"
+                              "1 2 3\n4 5 6\n"),
+                   &info);
+  EXPECT_EQ(info.width, 2u);
+  EXPECT_EQ(info.height, 1u);
+  EXPECT_EQ(info.viewpoint.position, Eigen::Vector3d(1.5, -2, 3000));
+  EXPECT_EQ(info.viewpoint.orientation.coeffs(), Eigen::Vector4d(-0.5, 0.5, 0.5, 0.5));  // x y z w
+  // A quaternion that is not unit is normalised; a file without VIEWPOINT has the identity.
+  read_point_cloud(write_file("vp2.pcd",
+                              "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 1\n"
+                              "VIEWPOINT 0 0 0 0 0 0 4e-310\nDATA ascii\n1 2 3\n"),
+                   &info);
+  EXPECT_EQ(info.viewpoint.orientation.coeffs(), Eigen::Vector4d(0, 0, 1, 0));
+  read_point_cloud(write_file("vp3.pcd",
+                              "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nPOINTS 1\n"
+                              "DATA ascii\n1 2 3\n"),
+                   &info);
+  EXPECT_EQ(info.viewpoint.orientation.coeffs(), Eigen::Vector4d(0, 0, 0, 1));
+  EXPECT_EQ(info.viewpoint.position, Eigen::Vector3d::Zero());
+  EXPECT_EQ(info.width, 1u);
+  EXPECT_EQ(info.height, 1u);
+}
+
+// A 4 x 3 depth image with pixels without a return (NaN), written organized and read back.
+class IoOrganizedPcdTest : public IoTest, public ::testing::WithParamInterface<PcdEncoding> {};
+
+TEST_P(IoOrganizedPcdTest, KeepsNaNPixelsInPlaceAndTheViewpoint) {
+  constexpr double nan = std::numeric_limits<double>::quiet_NaN();
+  PointCloud image;
+  std::vector<Eigen::Vector3d> finite;
+  for (int row = 0; row < 3; ++row) {
+    for (int col = 0; col < 4; ++col) {
+      const bool hole = (row * 4 + col) % 5 == 1;  // pixels 1, 6 and 11
+      image.positions.push_back(hole ? Eigen::Vector3d(nan, nan, nan)
+                                     : Eigen::Vector3d(col * 0.25, row * -0.5, 2.0 + col));
+      if (!hole) finite.push_back(image.positions.back());
+    }
+  }
+  PcdLayout layout;
+  layout.width = 4;
+  layout.height = 3;
+  layout.viewpoint.position = Eigen::Vector3d(0.1, -0.2, 1.0 / 3.0);
+  layout.viewpoint.orientation = Eigen::Quaterniond(0.5, 0.5, -0.5, 0.5);
+  const fs::path path = dir_ / "image.pcd";
+  write_pcd(path, image, GetParam(), layout);
+
+  ReadInfo info;
+  const PointCloud cloud = read_point_cloud(path, &info);
+  EXPECT_EQ(cloud.positions, finite);
+  EXPECT_EQ(info.dropped_non_finite, 3u);
+  EXPECT_EQ(info.width, 4u);
+  EXPECT_EQ(info.height, 3u);
+  EXPECT_EQ(info.viewpoint.position, layout.viewpoint.position);  // written with 17 digits
+  EXPECT_LT((info.viewpoint.orientation.coeffs() - layout.viewpoint.orientation.coeffs()).norm(),
+            1e-15);
+
+  // The holes sit in their pixels: in binary, record i is bytes [12 i, 12 i + 12) of the body.
+  if (GetParam() != PcdEncoding::kBinary) return;
+  std::ifstream in(path, std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::size_t body = bytes.find("DATA binary\n") + 12;
+  ASSERT_EQ(bytes.size(), body + 12 * 12);
+  for (std::size_t i = 0; i < 12; ++i) {
+    float x = 0;
+    std::memcpy(&x, bytes.data() + body + 12 * i, sizeof(float));
+    EXPECT_EQ(std::isnan(x), i % 5 == 1) << "pixel " << i;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(AllEncodings, IoOrganizedPcdTest,
+                         ::testing::Values(PcdEncoding::kAscii, PcdEncoding::kBinary,
+                                           PcdEncoding::kBinaryCompressed));
+
+TEST_F(IoTest, UnorganizedPcdLeavesNonFinitePointsOut) {
+  PointCloud cloud = random_cloud(20, true, 3);
+  cloud.positions[4].y() = std::numeric_limits<double>::infinity();
+  cloud.positions[9].x() = std::numeric_limits<double>::quiet_NaN();
+  for (const PcdEncoding encoding :
+       {PcdEncoding::kAscii, PcdEncoding::kBinary, PcdEncoding::kBinaryCompressed}) {
+    write_pcd(dir_ / "u.pcd", cloud, encoding);
+    ReadInfo info;
+    const PointCloud read = read_point_cloud(dir_ / "u.pcd", &info);
+    EXPECT_EQ(info.dropped_non_finite, 0u);
+    EXPECT_EQ(info.width, 18u);
+    ASSERT_EQ(read.size(), 18u);
+    EXPECT_EQ(read.positions[4], to_float32(cloud.positions[5]));
+    EXPECT_EQ(read.positions[17], to_float32(cloud.positions[19]));
+    EXPECT_TRUE(read.has_normals());
+  }
+}
+
+TEST_F(IoTest, OrganizedLayoutMustMatchTheCloud) {
+  const PointCloud cloud = random_cloud(12, false, 1);
+  for (const auto& [width, height] : {std::pair<std::size_t, std::size_t>{5, 3}, {12, 0}, {0, 1}}) {
+    PcdLayout layout;
+    layout.width = width;
+    layout.height = height;
+    EXPECT_THROW(write_pcd(dir_ / "bad.pcd", cloud, PcdEncoding::kBinary, layout),
+                 std::invalid_argument);
+  }
+  EXPECT_TRUE(fs::is_empty(dir_));
+}
+
+TEST_F(IoTest, WritePointCloudHonoursTheSettingsOfItsFormat) {
+  PointCloud image = random_cloud(6, false, 2);
+  image.positions[2].z() = std::numeric_limits<double>::quiet_NaN();
+  WriteSettings settings;
+  settings.pcd = PcdEncoding::kAscii;
+  settings.pcd_layout.width = 3;
+  settings.pcd_layout.height = 2;
+  settings.ply = PlyEncoding::kBinaryBigEndian;
+  write_point_cloud(dir_ / "a.pcd", image, settings);
+  write_point_cloud(dir_ / "a.ply", random_cloud(6, false, 2), settings);
+  ReadInfo info;
+  EXPECT_EQ(read_point_cloud(dir_ / "a.pcd", &info).size(), 5u);
+  EXPECT_EQ(info.height, 2u);
+  std::ifstream pcd(dir_ / "a.pcd");
+  const std::string text((std::istreambuf_iterator<char>(pcd)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("\nWIDTH 3\nHEIGHT 2\n"), std::string::npos);
+  EXPECT_NE(text.find(" nan\n"), std::string::npos);  // z of point 2, kept in place
+  std::ifstream ply(dir_ / "a.ply");
+  std::string line;
+  std::getline(ply, line);
+  std::getline(ply, line);
+  EXPECT_EQ(line, "format binary_big_endian 1.0");
+}
+
+TEST_F(IoTest, CloudFormatByExtension) {
+  EXPECT_EQ(cloud_format("a/b.PLY"), CloudFormat::kPly);
+  EXPECT_EQ(cloud_format("b.pcd"), CloudFormat::kPcd);
+  for (const char* name : {"c.xyz", "c.TXT", "c.csv"})
+    EXPECT_EQ(cloud_format(name), CloudFormat::kXyz);
+  for (const char* name : {"c.obj", "c", "ply", "c.ply.gz"})
+    EXPECT_EQ(cloud_format(name), std::nullopt);
+}
+
+// ---- line ends ----
+
+TEST_F(IoTest, XyzWithClassicMacLineEnds) {
+  const PointCloud cloud =
+      read_point_cloud(write_file("mac.csv", "x,y,z\r# comment\r1.5,-2,3e2\r\r4;5;6\r7 8 9"));
+  EXPECT_EQ(cloud.positions, (std::vector<Eigen::Vector3d>{{1.5, -2, 300}, {4, 5, 6}, {7, 8, 9}}));
+  // Line numbers count '\r' line ends.
+  try {
+    read_point_cloud(write_file("mac.xyz", "1 2 3\r4 5 6\r7 x 9\r"));
+    ADD_FAILURE() << "no error";
+  } catch (const IoError& e) {
+    EXPECT_NE(std::string(e.what()).find("line 3: bad number 'x'"), std::string::npos) << e.what();
+  }
+}
+
+TEST_F(IoTest, PlyAndPcdAsciiWithClassicMacLineEnds) {
+  std::string ply = std::string("ply\nformat ascii 1.0\n") + kPlyHeaderTail +
+                    "3 0 1 2 7\n4 0 1 2 0 9\n"
+                    "0.1 1 -2.5 2 -7 3\n1000 4 0.03125 5 32767 6\n-0 7 100 8 -32768 9\n"
+                    "2 0 1 0.5\n";
+  std::replace(ply.begin(), ply.end(), '\n', '\r');
+  EXPECT_EQ(read_point_cloud(write_file("mac.ply", ply)).positions, kHandPoints);
+  std::string pcd = pcd_header(kPcdFields, 2, "ascii");
+  for (const auto& point : kPcdValues) {
+    for (std::size_t i = 0; i < point.size(); ++i) {
+      if (i > 0) pcd += ' ';
+      pcd += format_double(point[i]);
+    }
+    pcd += "\n";
+  }
+  std::replace(pcd.begin(), pcd.end(), '\n', '\r');
+  expect_hand_pcd(read_point_cloud(write_file("mac.pcd", pcd)));
+}
+
+// With '\r' line ends, the binary body starts right after the DATA line's '\r', even when its first
+// byte is '\n' (0x0A), which a "\r\n" would have swallowed.
+TEST_F(IoTest, BinaryBodyAfterAClassicMacHeaderStartsAtItsFirstByte) {
+  Bytes b;
+  b.text("FIELDS x y z\rSIZE 1 1 1\rTYPE U U U\rWIDTH 2\rDATA binary\r");
+  b.put<std::uint8_t>('\n').put<std::uint8_t>(2).put<std::uint8_t>(3);
+  b.put<std::uint8_t>(4).put<std::uint8_t>(5).put<std::uint8_t>('\n');
+  const PointCloud cloud = read_point_cloud(write_file("mac_binary.pcd", b.str()));
+  EXPECT_EQ(cloud.positions, (std::vector<Eigen::Vector3d>{{10, 2, 3}, {4, 5, 10}}));
+  Bytes p;
+  p.text(
+      "ply\rformat binary_little_endian 1.0\relement vertex 1\rproperty uchar x\r"
+      "property uchar y\rproperty uchar z\rend_header\r");
+  p.put<std::uint8_t>('\n').put<std::uint8_t>('\r').put<std::uint8_t>('\n');
+  EXPECT_EQ(read_point_cloud(write_file("mac_binary.ply", p.str())).positions,
+            (std::vector<Eigen::Vector3d>{{10, 13, 10}}));
+}
+
 // ---- text ----
 
 TEST_F(IoTest, CsvWithHeaderAndExtraColumns) {
@@ -664,6 +865,17 @@ std::vector<Hostile> hostile_inputs() {
       {"PcdPointsNotWidthTimesHeight", "a.pcd",
        "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 3\nHEIGHT 2\nPOINTS 5\nDATA ascii\n1 2 3\n",
        "POINTS 5 does not equal WIDTH * HEIGHT = 3 * 2"},
+      {"PcdViewpointOfSixNumbers", "a.pcd",
+       "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 1\nVIEWPOINT 0 0 0 1 0 0\nDATA ascii\n1 2 3\n",
+       "line 5: expected 'VIEWPOINT tx ty tz qw qx qy qz'"},
+      {"PcdViewpointNaN", "a.pcd",
+       "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nVIEWPOINT nan 0 0 1 0 0 0\nWIDTH 1\nDATA ascii\n1 2 "
+       "3\n",
+       "line 4: expected 'VIEWPOINT"},
+      {"PcdViewpointZeroQuaternion", "a.pcd",
+       "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nVIEWPOINT 0 0 0 0 0 0 0\nWIDTH 1\nDATA ascii\n1 2 "
+       "3\n",
+       "a non-zero quaternion"},
       {"PcdUnknownData", "a.pcd", "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 1\nDATA zip\n",
        "unknown DATA encoding 'zip'"},
       {"PcdAsciiTooFewValues", "a.pcd",
@@ -745,6 +957,44 @@ TEST_F(IoTest, AFolderIsNotAPointCloud) {
   } catch (const IoError& e) {
     EXPECT_NE(std::string(e.what()).find("not a regular file"), std::string::npos) << e.what();
   }
+}
+
+// ---- memory ----
+
+// This process's peak resident size (VmHWM) in kB since `reset` last restarted it from the
+// current size (Linux: writing 5 to /proc/self/clear_refs); nullopt where that is unavailable.
+std::optional<long> peak_rss_kb(bool reset) {
+  if (reset) {
+    std::ofstream clear("/proc/self/clear_refs");
+    if (!(clear << "5" << std::flush)) return std::nullopt;
+  }
+  std::ifstream status("/proc/self/status");
+  for (std::string line; std::getline(status, line);) {
+    if (line.rfind("VmHWM:", 0) == 0) return std::stol(line.substr(6));
+  }
+  return std::nullopt;
+}
+
+// Reading streams the file through a fixed buffer: a 4-million-point binary PLY (48 MB) costs the
+// cloud (24 bytes a point, 96 MB), not the file on top of it. The bound, half the file, leaves
+// room for the 4 MiB buffer; the whole file held while parsing would exceed it.
+TEST_F(IoTest, ReadingDoesNotHoldTheFile) {
+  if (test::kSanitized) GTEST_SKIP() << "resident memory means little under a sanitizer";
+  constexpr std::size_t kPoints = 4000000;
+  {
+    std::ofstream out(dir_ / "big.ply", std::ios::binary);
+    out << ply_binary_header(std::to_string(kPoints));
+    const std::string block(12 * 1000, '\0');
+    for (std::size_t i = 0; i < kPoints / 1000; ++i) out << block;
+  }
+  const auto before = peak_rss_kb(true);
+  if (!before) GTEST_SKIP() << "no /proc/self/clear_refs";
+  const PointCloud cloud = read_point_cloud(dir_ / "big.ply");
+  ASSERT_EQ(cloud.size(), kPoints);
+  const double grown_mb = static_cast<double>(*peak_rss_kb(false) - *before) * 1024 / 1e6;
+  const double cloud_mb = kPoints * 24 / 1e6, file_mb = kPoints * 12 / 1e6;
+  EXPECT_GT(grown_mb, 0.9 * cloud_mb) << "the cloud itself must be resident";
+  EXPECT_LT(grown_mb, cloud_mb + file_mb / 2);
 }
 
 // ---- matrices ----

@@ -7,6 +7,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 #include <vector>
 
 #include "align3d/error.hpp"
@@ -242,7 +243,7 @@ TEST(PlaneRectify, PlateFacingDownStaysRightSideUpByDefaultAndHonoursUp) {
   EXPECT_LT(angle_deg(r.T_level_cloud.linear() * -upright.true_normal, Eigen::Vector3d::UnitZ()),
             0.05);
   rs.up = Eigen::Vector3d::Zero();
-  EXPECT_THROW(rectify(upright.cloud, rs), std::invalid_argument);
+  EXPECT_THROW(rectify(upright.cloud, rs), std::invalid_argument);  // a programming error
 }
 
 TEST(PlaneRectify, PartOnThePlateDecidesUpEvenWhenTheNormalLeansDown) {

@@ -12,6 +12,20 @@
 
 namespace align3d::test {
 
+// Built with AddressSanitizer or ThreadSanitizer: they reserve terabytes of address space and keep
+// freed memory in quarantine, so memory limits and resident-size bounds mean nothing there.
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+inline constexpr bool kSanitized = true;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
+inline constexpr bool kSanitized = true;
+#else
+inline constexpr bool kSanitized = false;
+#endif
+#else
+inline constexpr bool kSanitized = false;
+#endif
+
 // A fresh empty directory under the system temp dir, removed at scope exit.
 class TempDir {
  public:

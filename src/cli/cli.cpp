@@ -18,7 +18,8 @@ int run(const std::vector<std::string>& args, std::ostream& out, std::ostream& e
   app.set_version_flag("--version", "align3d 0.1.0");
   const Streams io{out, err};
   const Command commands[] = {add_register(app, io), add_synth(app, io),     add_rectify(app, io),
-                              add_demo(app, io),     add_ppf_model(app, io), add_evaluate(app, io)};
+                              add_demo(app, io),     add_ppf_model(app, io), add_evaluate(app, io),
+                              add_convert(app, io)};
 
   try {
     std::vector<std::string> reversed(args.rbegin(), args.rend());  // CLI11 wants them reversed

@@ -5,42 +5,41 @@
 #include <cmath>
 #include <cstdio>
 #include <iostream>
+#include <optional>
 #include <sstream>
+#include <string_view>
 
 #include "align3d/error.hpp"
 #include "align3d/io/atomic_file.hpp"
 #include "align3d/io/point_cloud_io.hpp"
+#include "detail/number.hpp"
 
 namespace align3d::cli {
 
-PointCloud load_cloud(const std::filesystem::path& path, std::ostream& err) {
-  io::ReadInfo info;
-  PointCloud cloud = io::read_point_cloud(path, &info);
-  if (info.dropped_non_finite > 0)
-    err << "align3d: warning: " << path.string() << ": dropped " << info.dropped_non_finite
+PointCloud load_cloud(const std::filesystem::path& path, std::ostream& err, io::ReadInfo* info) {
+  io::ReadInfo read;
+  PointCloud cloud = io::read_point_cloud(path, &read);
+  if (read.dropped_non_finite > 0)
+    err << "align3d: warning: " << path.string() << ": dropped " << read.dropped_non_finite
         << " points with NaN or Inf coordinates\n";
+  if (info != nullptr) *info = read;
   return cloud;
 }
 
 Eigen::Vector3d parse_vector(const std::string& text, const std::string& flag) {
   Eigen::Vector3d v;
-  std::stringstream ss(text);
-  std::string part;
-  int i = 0;
-  for (; std::getline(ss, part, ',') && i < 4; ++i) {
-    std::size_t used = 0;
-    double x = 0;
-    try {
-      x = std::stod(part, &used);
-    } catch (const std::exception&) {
-      used = 0;
-    }
-    if (used == 0 || used != part.size() || !std::isfinite(x) || i == 3)
-      throw UsageError(flag + ": expected X,Y,Z (three finite numbers), got '" + text + "'");
-    v[i] = x;
+  std::string_view rest = text;
+  for (int i = 0; i < 3; ++i) {
+    const std::size_t comma = rest.find(',');
+    // Exactly three parts: a fourth ("1,2,3,4") or a trailing comma leaves a comma after the third.
+    const bool last = i == 2;
+    const std::optional<double> x = (last == (comma == std::string_view::npos))
+                                        ? detail::parse_finite(rest.substr(0, comma))
+                                        : std::nullopt;
+    if (!x) throw UsageError(flag + ": expected X,Y,Z (three finite numbers), got '" + text + "'");
+    v[i] = *x;
+    if (!last) rest.remove_prefix(comma + 1);
   }
-  if (i != 3)
-    throw UsageError(flag + ": expected X,Y,Z (three finite numbers), got '" + text + "'");
   return v;
 }
 
@@ -104,6 +103,17 @@ void add_threads(CLI::App* sub, int& threads) {
   sub->add_option("--threads", threads, "Threads (0: all cores); results do not depend on it")
       ->check(CLI::Range(0, 1024))
       ->capture_default_str();
+}
+
+const CLI::Validator& finite_non_negative() {
+  static const CLI::Validator validator(
+      [](const std::string& text) -> std::string {
+        const std::optional<double> v = detail::parse_finite(text);
+        if (v && *v >= 0) return {};
+        return "expected a finite non-negative number, got '" + text + "'";
+      },
+      "finite >= 0");
+  return validator;
 }
 
 }  // namespace align3d::cli

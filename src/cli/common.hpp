@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "align3d/io/point_cloud_io.hpp"
 #include "align3d/point_cloud.hpp"
 #include "align3d/progress.hpp"
 #include "align3d/report/json.hpp"
@@ -22,13 +23,15 @@ struct Streams {
   std::ostream& err;
 };
 
-// Reads a cloud, warning on `err` about dropped non-finite points.
-PointCloud load_cloud(const std::filesystem::path& path, std::ostream& err);
+// Reads a cloud, warning on `err` about dropped non-finite points; `info` receives what the reader
+// reports.
+PointCloud load_cloud(const std::filesystem::path& path, std::ostream& err,
+                      io::ReadInfo* info = nullptr);
 
 using report::to_json;     // 4 arrays of 4 numbers, row-major; vectors as 3 numbers
 using report::write_json;  // to a file atomically, or to `out` with "-"
 
-// Parses "X,Y,Z" (throws UsageError naming `flag`).
+// Parses "X,Y,Z": exactly three finite numbers (throws UsageError naming `flag`).
 Eigen::Vector3d parse_vector(const std::string& text, const std::string& flag);
 
 // Prints each warning as "align3d: warning: …" on `err`. Returns the exit code the command ends
@@ -62,6 +65,9 @@ class ProgressLine {
 // Adds --quiet and --threads, shared by the commands that run long work.
 void add_quiet(CLI::App* sub, bool& quiet);
 void add_threads(CLI::App* sub, int& threads);
+// For numeric options: CLI11's NonNegativeNumber (and PositiveNumber) let "nan" through (every
+// comparison with NaN is false) and accept "inf"; this requires a finite number >= 0.
+const CLI::Validator& finite_non_negative();
 
 // Subcommands: each adds itself to `app` and returns the runner to call once parsing chose it.
 struct Command {
@@ -74,5 +80,6 @@ Command add_rectify(CLI::App& app, Streams io);
 Command add_demo(CLI::App& app, Streams io);
 Command add_ppf_model(CLI::App& app, Streams io);
 Command add_evaluate(CLI::App& app, Streams io);
+Command add_convert(CLI::App& app, Streams io);
 
 }  // namespace align3d::cli

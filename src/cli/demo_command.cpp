@@ -59,7 +59,9 @@ Command add_demo(CLI::App& app, Streams io) {
       ->capture_default_str();
   sub->add_option("--scene", o->scene,
                   "Read the scene from a directory written by `align3d synth`");
-  sub->add_option("--seed", o->seed, "Seed of the generated scene")->capture_default_str();
+  sub->add_option("--seed", o->seed, "Seed of the generated scene")
+      ->check(CLI::NonNegativeNumber)  // CLI11 would wrap -1 to 2^64 - 1
+      ->capture_default_str();
   add_threads(sub, o->threads);
   add_quiet(sub, o->quiet);
   return {sub, [o, io] { return run_demo(*o, io); }};

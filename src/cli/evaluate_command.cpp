@@ -170,7 +170,9 @@ Command add_evaluate(CLI::App& app, Streams io) {
   sub->add_option("--cell-trials", o->cell_trials, "Trials per basin cell")
       ->check(CLI::Range(1, 1000))
       ->capture_default_str();
-  sub->add_option("--seed", o->seed, "Seed of the random poses")->capture_default_str();
+  sub->add_option("--seed", o->seed, "Seed of the random poses")
+      ->check(CLI::NonNegativeNumber)  // CLI11 would wrap -1 to 2^64 - 1
+      ->capture_default_str();
   sub->add_flag("--quick", o->quick, "3 trials and a 2×2 basin: checks the machinery only");
   add_threads(sub, o->threads);
   add_quiet(sub, o->quiet);

@@ -1,4 +1,7 @@
 // align3d ppf-model MODEL OUT: build the PPF model description once, for many scans.
+#include <sstream>
+#include <stdexcept>
+
 #include "align3d/coarse/ppf.hpp"
 #include "align3d/error.hpp"
 #include "common.hpp"
@@ -24,7 +27,7 @@ Command add_ppf_model(CLI::App& app, Streams io) {
   sub->add_option("--voxel", o->voxel,
                   "Voxel size (data units); 0: the model's extent / 50 (its bulk: 0.5-99.5 "
                   "percentiles), as register's global stage uses")
-      ->check(CLI::NonNegativeNumber)
+      ->check(finite_non_negative())
       ->capture_default_str();
   return {sub, [o, io] {
             const PointCloud model = load_cloud(o->model, io.err);
@@ -35,6 +38,12 @@ Command add_ppf_model(CLI::App& app, Streams io) {
               description = build_ppf_model(model, global_voxel(model, model, gs));
             } catch (const DataError& e) {
               throw DataError(o->model, e.problem());
+            } catch (const std::invalid_argument& e) {
+              // The one argument the user chose: a voxel so small that the grid overflows.
+              std::ostringstream voxel;
+              voxel << o->voxel;
+              throw UsageError("--voxel " + voxel.str() + " is too small for " + o->model + " (" +
+                               e.what() + ")");
             }
             save_ppf_model(o->out, description);
             io.out << "wrote " << o->out << " (PPF model of " << o->model << ", voxel "

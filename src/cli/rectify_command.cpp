@@ -10,20 +10,20 @@ namespace {
 struct RectifyOptions {
   std::string cloud, output, report, up;
   std::string fit = RectifySettings{}.robust ? "robust" : "lsq";
-  bool robust = false, strict = false, quiet = false;
+  bool robust = false, strict = false, quiet = false, up_given = false;
   std::uint64_t seed = RectifySettings{}.ransac.seed;
 };
 
 int run_rectify(const RectifyOptions& o, Streams io) {
-  const PointCloud cloud = load_cloud(o.cloud, io.err);
   RectifySettings s;
   s.robust = o.robust || o.fit == "robust";
   s.ransac.seed = o.seed;
-  if (!o.up.empty()) {
+  if (o.up_given) {
     s.up = parse_vector(o.up, "--up");
-    if (!(s.up->norm() > 0))
-      throw UsageError("--up: expected a non-zero direction, got '" + o.up + "'");
+    if (s.up->isZero(0.0))
+      throw UsageError("--up: the zero vector gives no direction, got '" + o.up + "'");
   }
+  const PointCloud cloud = load_cloud(o.cloud, io.err);
   RectifyResult r;
   try {
     r = rectify(cloud, s);
@@ -63,12 +63,18 @@ Command add_rectify(CLI::App& app, Streams io) {
       ->check(CLI::IsMember({"robust", "lsq"}))
       ->capture_default_str();
   sub->add_flag("--robust", o->robust, "The same as --fit robust (the default)");
-  sub->add_option("--up", o->up, "X,Y,Z: the direction that counts as up (the normal's sign)");
-  sub->add_option("--seed", o->seed, "RANSAC seed (robust fit)")->capture_default_str();
+  CLI::Option* up =
+      sub->add_option("--up", o->up, "X,Y,Z: the direction that counts as up (the normal's sign)");
+  sub->add_option("--seed", o->seed, "RANSAC seed (robust fit)")
+      ->check(CLI::NonNegativeNumber)  // CLI11 would wrap -1 to 2^64 - 1
+      ->capture_default_str();
   sub->add_flag("--strict", o->strict,
                 "Exit with code 7 when the result comes with warnings (outputs are written)");
   add_quiet(sub, o->quiet);
-  return {sub, [o, io] { return run_rectify(*o, io); }};
+  return {sub, [o, io, up] {
+            o->up_given = up->count() > 0;
+            return run_rectify(*o, io);
+          }};
 }
 
 }  // namespace align3d::cli

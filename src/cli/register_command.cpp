@@ -180,10 +180,11 @@ Command add_register(CLI::App& app, Streams io) {
                   "uses ppf)");
   sub->add_option("--voxel", s.global.voxel,
                   "Voxel of the global stage, for every method (data units); 0: the smaller "
-                  "cloud's extent / 50 (its bulk: 0.5-99.5 percentiles)")
-      ->check(CLI::NonNegativeNumber)
+                  "cloud's extent / 50 (its bulk: 0.5-99.5 percentiles), at least 3 point spacings")
+      ->check(finite_non_negative())
       ->capture_default_str();
   sub->add_option("--seed", s.seed, "Seed of the global stage (same seed, same pose)")
+      ->check(CLI::NonNegativeNumber)  // CLI11 would wrap -1 to 2^64 - 1
       ->capture_default_str();
   sub->add_flag("--mutual", s.global.mutual_filter,
                 "fpfh: keep only mutual descriptor nearest neighbours (fewer, cleaner matches)");
@@ -199,7 +200,7 @@ Command add_register(CLI::App& app, Streams io) {
   sub->add_option("--tolerance", s.refine.termination.rms_change,
                   "Stop when |ΔRMS| < EPS·RMS between iterations (relative, so unit-free); ICP "
                   "also stops when an update is negligible")
-      ->check(CLI::PositiveNumber)
+      ->check(CLI::PositiveNumber & finite_non_negative())
       ->capture_default_str();
   sub->add_option("--output", o->output,
                   "Write SOURCE moved into TARGET's frame (binary PLY or by extension)");

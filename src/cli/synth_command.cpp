@@ -158,6 +158,7 @@ Command add_synth(CLI::App& app, Streams io) {
       "pair_0_K.txt (view_0 ≈ T·view_K), scene.json.");
   sub->add_option("OUTDIR", o->outdir, "Output directory (created if missing)")->required();
   sub->add_option("--seed", o->seed, "Random seed; the same seed writes the same bytes")
+      ->check(CLI::NonNegativeNumber)  // CLI11 would wrap -1 to 2^64 - 1
       ->capture_default_str();
   sub->add_option("--variant", o->variant,
                   "Scene geometry: chapter, or a harder variant for testing registration")

@@ -2,10 +2,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 
 #include "align3d/icp/correspondences.hpp"
+#include "detail/number.hpp"
 
 namespace align3d {
 
@@ -41,17 +43,11 @@ double rejection_threshold(const RejectionRule& rule, const Correspondences& pai
 namespace {
 
 double parse_positive(const std::string& text, const std::string& what, bool allow_zero) {
-  std::size_t used = 0;
-  double v = 0;
-  try {
-    v = std::stod(text, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used != text.size() || !std::isfinite(v) || v < 0 || (!allow_zero && v == 0))
+  const std::optional<double> v = detail::parse_finite(text);
+  if (!v || *v < 0 || (!allow_zero && *v == 0))
     throw std::invalid_argument(what + " must be a " + (allow_zero ? "non-negative" : "positive") +
                                 " number, got '" + text + "'");
-  return v;
+  return *v;
 }
 
 }  // namespace

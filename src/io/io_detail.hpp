@@ -1,7 +1,7 @@
-// Private plumbing shared by the readers and writers in src/io (not installed): whole-file loading,
-// errors that start with the file name, locale-free number parsing, byte-order-aware loads and
-// stores, and the builder that applies point_cloud_io.hpp's rules for non-finite points and
-// normals.
+// Private plumbing shared by the readers and writers in src/io (not installed): errors that start
+// with the file name, locale-free number parsing, byte-order-aware loads and stores, the decoding
+// of fixed-size binary records, and the builder that applies point_cloud_io.hpp's rules for
+// non-finite points and normals. The input itself is streamed (block_reader.hpp).
 #pragma once
 
 #include <fast_float/fast_float.h>
@@ -16,26 +16,32 @@
 #include <cstring>
 #include <filesystem>
 #include <limits>
-#include <memory>
+#include <optional>
 #include <ostream>
 #include <string>
 #include <string_view>
 #include <system_error>
+#include <tuple>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
+#include "align3d/io/point_cloud_io.hpp"
 #include "align3d/point_cloud.hpp"
+#include "block_reader.hpp"
+#include "detail/number.hpp"
 
 namespace align3d::io::detail {
 
-// Files are loaded with one bulk read and parsed from memory with pointers (no per-value stream
-// calls), and the size known up front bounds every count a header announces before anything is
-// allocated.
-inline constexpr std::uint64_t kMaxFileBytes = std::uint64_t{16} << 30;
 // Real PLY/PCD headers are a few hundred bytes; a megabyte without an end marker is not a header.
 inline constexpr std::size_t kMaxHeaderBytes = std::size_t{1} << 20;
 
 // Throws IoError("<path>: <problem>").
 [[noreturn]] void fail(const std::filesystem::path& path, const std::string& problem);
+
+// Throws DataError("<path>: not enough memory for <what>"): the file is fine, this machine is too
+// small for it (README, "Exit codes").
+[[noreturn]] void fail_out_of_memory(const std::filesystem::path& path, const std::string& what);
 
 // A data line of a PLY or PCD ascii body longer than this is refused (PCL's largest descriptors
 // take a few tens of kB as text), so that a binary body under an ascii header, or a missing
@@ -49,49 +55,6 @@ void check_line_length(const std::filesystem::path& path, std::string_view line,
 // A token quoted for an error message: truncated, control bytes replaced, so that a binary file
 // misread as text cannot garble the message.
 std::string quoted(std::string_view token);
-
-class FileBytes {
- public:
-  FileBytes(std::unique_ptr<char[]> data, std::size_t size) : data_(std::move(data)), size_(size) {}
-  std::string_view view() const { return {data_.get(), size_}; }
-
- private:
-  std::unique_ptr<char[]> data_;
-  std::size_t size_;
-};
-
-// The whole file; IoError if it is missing, not a regular file, unreadable, empty or larger than
-// max_bytes.
-FileBytes read_file(const std::filesystem::path& path, std::uint64_t max_bytes);
-
-// Iterates over the lines of a buffer. A line ends at '\n'; a '\r' before it is dropped so that
-// files written on Windows parse the same.
-class LineCursor {
- public:
-  LineCursor(const char* begin, const char* end, std::size_t first_line_number = 1)
-      : pos_(begin), end_(end), next_number_(first_line_number) {}
-
-  // False at the end of the buffer; otherwise `line` is the next line without its terminator.
-  bool next(std::string_view& line) {
-    if (pos_ == end_) return false;
-    const auto* newline = static_cast<const char*>(std::memchr(pos_, '\n', end_ - pos_));
-    const char* stop = newline != nullptr ? newline : end_;
-    const char* text_end = (stop != pos_ && stop[-1] == '\r') ? stop - 1 : stop;
-    line = std::string_view(pos_, text_end - pos_);
-    pos_ = newline != nullptr ? newline + 1 : end_;
-    number_ = next_number_++;
-    return true;
-  }
-  std::size_t number() const { return number_; }  // 1-based number of the line last returned
-  const char* position() const { return pos_; }   // start of the next line
-  const char* end() const { return end_; }
-
- private:
-  const char* pos_;
-  const char* end_;
-  std::size_t next_number_;
-  std::size_t number_ = 0;
-};
 
 inline bool is_space(char c) {
   return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f';
@@ -112,35 +75,24 @@ std::string_view next_token(std::string_view line, std::size_t& pos, IsSeparator
   return line.substr(begin, pos - begin);
 }
 
-std::vector<std::string_view> split_words(std::string_view line);  // on is_space
-
-// Numbers are parsed with fast_float: locale-independent, correctly rounded, and it reads "nan" and
-// "inf" (so such points can be counted and dropped). A leading '+', which it rejects like
-// std::from_chars by design, is skipped because some exporters write one.
-inline const char* skip_plus(const char* first, const char* last) {
-  return (last - first > 1 && first[0] == '+' && first[1] != '-') ? first + 1 : first;
-}
-
-// Parses a whole token.
-inline bool parse_double(std::string_view token, double& value) {
-  const char* last = token.data() + token.size();
-  const auto result = fast_float::from_chars(skip_plus(token.data(), last), last, value);
-  return result.ec == std::errc() && result.ptr == last;
+inline bool is_blank(std::string_view line) {
+  return std::all_of(line.begin(), line.end(), is_space);
 }
 
 enum class Token { kNumber, kEnd, kNotANumber };
 
-// The next number on the line, parsed in place: one pass over its characters instead of finding
-// the token's end and then parsing it, which matters for multi-million-line files. A number must
-// end at a separator or at the end of the line. On kNotANumber `pos` is left at the offending
-// token, so that the caller can quote it (next_token).
+// The next number on the line, parsed in place with the rules of detail/number.hpp: one pass over
+// its characters instead of finding the token's end and then parsing it, which matters for
+// multi-million-line files. A number must end at a separator or at the end of the line. On
+// kNotANumber `pos` is left at the offending token, so that the caller can quote it (next_token).
 template <typename IsSeparator>
 Token next_number(std::string_view line, std::size_t& pos, IsSeparator is_separator,
                   double& value) {
   while (pos < line.size() && is_separator(line[pos])) ++pos;
   if (pos == line.size()) return Token::kEnd;
   const char* last = line.data() + line.size();
-  const auto result = fast_float::from_chars(skip_plus(line.data() + pos, last), last, value);
+  const auto result =
+      fast_float::from_chars(align3d::detail::skip_plus(line.data() + pos, last), last, value);
   if (result.ec != std::errc() || (result.ptr != last && !is_separator(*result.ptr))) {
     return Token::kNotANumber;
   }
@@ -169,28 +121,50 @@ enum class ScalarType : std::uint8_t {
   kFloat64,
 };
 
-constexpr std::size_t scalar_size(ScalarType type) {
-  switch (type) {
-    case ScalarType::kInt8:
-    case ScalarType::kUint8:
-      return 1;
-    case ScalarType::kInt16:
-    case ScalarType::kUint16:
-      return 2;
-    case ScalarType::kInt32:
-    case ScalarType::kUint32:
-    case ScalarType::kFloat32:
-      return 4;
-    case ScalarType::kInt64:
-    case ScalarType::kUint64:
-    case ScalarType::kFloat64:
-      return 8;
+// The C++ type of each ScalarType, in the enum's order.
+using ScalarTypes = std::tuple<std::int8_t, std::uint8_t, std::int16_t, std::uint16_t, std::int32_t,
+                               std::uint32_t, std::int64_t, std::uint64_t, float, double>;
+
+template <typename F, std::size_t... kIndex>
+constexpr auto visit_scalar(ScalarType type, const F& f, std::index_sequence<kIndex...>) {
+  decltype(f(std::int8_t{})) result{};
+  static_cast<void>(((static_cast<std::size_t>(type) == kIndex &&
+                      (result = f(std::tuple_element_t<kIndex, ScalarTypes>{}), true)) ||
+                     ...));
+  return result;
+}
+
+// f(T{}) with the C++ type T that `type` names (f returns the same type for all).
+template <typename F>
+constexpr auto visit_scalar(ScalarType type, const F& f) {
+  return visit_scalar(type, f, std::make_index_sequence<std::tuple_size_v<ScalarTypes>>{});
+}
+
+// The value that `name` stands for in `table`, or nullopt.
+template <typename T, std::size_t kSize>
+std::optional<T> lookup(const std::pair<std::string_view, T> (&table)[kSize],
+                        std::string_view name) {
+  for (const auto& [key, value] : table) {
+    if (key == name) return value;
   }
-  return 0;
+  return std::nullopt;
+}
+
+// The value that `word` stands for in `table`; IoError "<problem> '<word>'" if none.
+template <typename T, std::size_t kSize>
+T lookup_or_fail(const std::pair<std::string_view, T> (&table)[kSize], std::string_view word,
+                 const std::filesystem::path& path, const std::string& problem) {
+  const std::optional<T> value = lookup(table, word);
+  if (!value) fail(path, problem + " " + quoted(word));
+  return *value;
+}
+
+constexpr std::size_t scalar_size(ScalarType type) {
+  return visit_scalar(type, [](auto t) { return sizeof(t); });
 }
 
 constexpr bool is_integer(ScalarType type) {
-  return type != ScalarType::kFloat32 && type != ScalarType::kFloat64;
+  return visit_scalar(type, [](auto t) { return std::is_integral_v<decltype(t)>; });
 }
 
 inline constexpr bool kHostIsBigEndian = std::endian::native == std::endian::big;
@@ -207,29 +181,8 @@ T load(const char* p) {
 
 template <bool kSwap>
 double load_scalar(const char* p, ScalarType type) {
-  switch (type) {
-    case ScalarType::kInt8:
-      return load<std::int8_t, kSwap>(p);
-    case ScalarType::kUint8:
-      return load<std::uint8_t, kSwap>(p);
-    case ScalarType::kInt16:
-      return load<std::int16_t, kSwap>(p);
-    case ScalarType::kUint16:
-      return load<std::uint16_t, kSwap>(p);
-    case ScalarType::kInt32:
-      return load<std::int32_t, kSwap>(p);
-    case ScalarType::kUint32:
-      return load<std::uint32_t, kSwap>(p);
-    case ScalarType::kInt64:
-      return static_cast<double>(load<std::int64_t, kSwap>(p));
-    case ScalarType::kUint64:
-      return static_cast<double>(load<std::uint64_t, kSwap>(p));
-    case ScalarType::kFloat32:
-      return load<float, kSwap>(p);
-    case ScalarType::kFloat64:
-      return load<double, kSwap>(p);
-  }
-  return 0.0;
+  return visit_scalar(type,
+                      [p](auto t) { return static_cast<double>(load<decltype(t), kSwap>(p)); });
 }
 
 // double -> float without the undefined behaviour of casting an out-of-range value (IEEE would give
@@ -295,16 +248,14 @@ class ChunkedOutput {
 
 // Collects points while parsing, applying the reader contract of point_cloud_io.hpp: a point with a
 // non-finite coordinate is dropped and counted; the normals of the kept points are kept only if all
-// are finite and non-zero, and then normalised.
+// are finite and non-zero, and then normalised. Running out of memory is fail_out_of_memory.
 class CloudBuilder {
  public:
-  explicit CloudBuilder(bool with_normals) : normals_ok_(with_normals) {}
+  CloudBuilder(const std::filesystem::path& path, bool with_normals)
+      : path_(path), normals_ok_(with_normals) {}
 
   // Only call with a count already checked against the bytes the file holds.
-  void reserve(std::size_t count) {
-    positions_.reserve(count);
-    if (normals_ok_) normals_.reserve(count);
-  }
+  void reserve(std::size_t count);
 
   void add(double x, double y, double z) {
     if (!(std::isfinite(x) && std::isfinite(y) && std::isfinite(z))) {
@@ -320,45 +271,130 @@ class CloudBuilder {
       return;
     }
     positions_.emplace_back(x, y, z);
-    if (!normals_ok_) return;
-    const Eigen::Vector3d n(nx, ny, nz);
-    // A zero normal is how many tools write "unknown"; it cannot be made a unit vector. Others are
-    // scaled by their largest component first, so that tiny (even subnormal) or huge components
-    // still normalise to a unit vector: their squared norm would underflow or overflow.
+    if (normals_ok_) keep_normal(Eigen::Vector3d(nx, ny, nz), normals_.size());
+  }
+
+  // Column-major input (PCD binary_compressed): allocate(count) makes points 0 .. count - 1
+  // settable in any order, component 0-2 the position, 3-5 the normal; finish() then applies the
+  // rules above in place. Only call with a count already checked against the file.
+  void allocate(std::size_t count);
+  void set(std::size_t point, std::size_t component, double value) {
+    auto& v = component < 3 ? positions_[point] : normals_[point];
+    v[static_cast<Eigen::Index>(component % 3)] = value;
+  }
+
+  std::size_t dropped() const { return dropped_; }
+  PointCloud finish();
+
+ private:
+  // A zero normal is how many tools write "unknown"; it cannot be made a unit vector. Others are
+  // scaled by their largest component first, so that tiny (even subnormal) or huge components
+  // still normalise to a unit vector: their squared norm would underflow or overflow.
+  void keep_normal(const Eigen::Vector3d& n, std::size_t index) {
     const double largest = n.cwiseAbs().maxCoeff();
     if (n.allFinite() && largest > 0.0) {
-      normals_.push_back(n / largest);
+      if (index == normals_.size()) {
+        normals_.push_back(n / largest);
+      } else {
+        normals_[index] = n / largest;
+      }
     } else {
       normals_ok_ = false;
       normals_ = {};
     }
   }
 
-  PointCloud finish(std::size_t& dropped) {
-    PointCloud cloud;
-    cloud.positions = std::move(positions_);
-    if (normals_ok_) {
-      for (auto& n : normals_) n.normalize();
-      cloud.normals = std::move(normals_);
-    }
-    dropped = dropped_;
-    return cloud;
-  }
-
- private:
+  const std::filesystem::path& path_;
   std::vector<Eigen::Vector3d> positions_;
   std::vector<Eigen::Vector3d> normals_;
   bool normals_ok_;
+  bool columns_ = false;  // filled by allocate() and set()
   std::size_t dropped_ = 0;
 };
 
-// The format readers, given the whole (non-empty) file; `dropped` receives the number of points
-// dropped for a non-finite coordinate. An empty result is not an error here.
-PointCloud read_ply(const std::filesystem::path& path, std::string_view data, std::size_t& dropped);
-PointCloud read_pcd(const std::filesystem::path& path, std::string_view data, std::size_t& dropped);
-PointCloud read_xyz(const std::filesystem::path& path, std::string_view data, std::size_t& dropped);
+// Where a record's fields of interest lie: the six components x y z nx ny nz (the last three only
+// with normals).
+struct RecordField {
+  std::size_t offset = 0;  // within the record
+  ScalarType type = ScalarType::kFloat32;
+};
+struct RecordLayout {
+  std::size_t stride = 0;  // record size, > 0
+  std::array<RecordField, 6> fields{};
+  bool normals = false;
+};
 
-// The matrix reader (matrix_io.hpp) given the whole file's bytes.
-Eigen::Isometry3d parse_matrix(const std::filesystem::path& path, std::string_view data);
+// Decodes `count` packed records of a fixed size from `in` into the builder: the binary PLY vertex
+// element without lists, and binary PCD. The count must have been checked against in.remaining(); a
+// file that still ends early (it shrank while being read) is an IoError naming `what` and the byte
+// offset. Records that fit the buffer are decoded straight from it, many at a time (the per-value
+// type switch is well predicted: the same types repeat in every record); a larger one (a PCD field
+// with a huge COUNT) is walked field by field.
+template <bool kSwap>
+void decode_records(BlockReader& in, std::uint64_t count, const RecordLayout& layout,
+                    CloudBuilder& builder, const std::string& what) {
+  const std::size_t stride = layout.stride;
+  const std::size_t components = layout.normals ? 6 : 3;
+  std::array<double, 6> v{};
+  const auto emit = [&] {
+    if (layout.normals) {
+      builder.add(v[0], v[1], v[2], v[3], v[4], v[5]);
+    } else {
+      builder.add(v[0], v[1], v[2]);
+    }
+  };
+  const auto truncated = [&] {
+    fail(in.path(),
+         "truncated data at byte offset " + std::to_string(in.offset()) + " (" + what + ")");
+  };
+  if (stride <= in.capacity()) {
+    for (std::uint64_t r = 0; r < count;) {
+      const std::string_view data = in.peek(stride);
+      if (data.size() < stride) truncated();
+      const auto n =
+          static_cast<std::size_t>(std::min<std::uint64_t>(count - r, data.size() / stride));
+      for (std::size_t i = 0; i < n; ++i) {
+        const char* record = data.data() + i * stride;
+        for (std::size_t k = 0; k < components; ++k) {
+          v[k] = load_scalar<kSwap>(record + layout.fields[k].offset, layout.fields[k].type);
+        }
+        emit();
+      }
+      in.consume(n * stride);
+      r += n;
+    }
+    return;
+  }
+  // Fields in file order, to walk each record front to back.
+  std::array<std::size_t, 6> order{0, 1, 2, 3, 4, 5};
+  std::sort(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(components),
+            [&](std::size_t a, std::size_t b) {
+              return layout.fields[a].offset < layout.fields[b].offset;
+            });
+  for (std::uint64_t r = 0; r < count; ++r) {
+    std::size_t at = 0;  // within the record
+    for (std::size_t j = 0; j < components; ++j) {
+      const RecordField& field = layout.fields[order[j]];
+      const std::size_t size = scalar_size(field.type);
+      if (in.skip(field.offset - at) < field.offset - at) truncated();
+      const std::string_view data = in.peek(size);
+      if (data.size() < size) truncated();
+      v[order[j]] = load_scalar<kSwap>(data.data(), field.type);
+      in.consume(size);
+      at = field.offset + size;
+    }
+    if (in.skip(stride - at) < stride - at) truncated();
+    emit();
+  }
+}
+
+// The format readers, from the file's first byte: they fill `info` and return the points (an empty
+// result is not an error here).
+PointCloud read_ply(BlockReader& in, ReadInfo& info);
+PointCloud read_pcd(BlockReader& in, ReadInfo& info);
+PointCloud read_xyz(BlockReader& in, ReadInfo& info);
+
+// The matrix reader (matrix_io.hpp), from the file's first byte.
+Eigen::Isometry3d parse_matrix(BlockReader& in);
 
 }  // namespace align3d::io::detail

@@ -24,13 +24,15 @@ std::string line_name(std::size_t line) { return "line " + std::to_string(line);
 
 namespace detail {
 
-Eigen::Isometry3d parse_matrix(const std::filesystem::path& path, std::string_view data) {
-  detail::LineCursor lines(data.data(), data.data() + data.size());
+Eigen::Isometry3d parse_matrix(BlockReader& in) {
+  const std::filesystem::path& path = in.path();
+  LineReader lines(in);
   Eigen::Matrix4d m;
   std::array<std::size_t, 4> row_line{};
   int rows = 0;
   std::string_view line;
-  while (lines.next(line)) {
+  while (lines.next(line, kMaxMatrixFileBytes)) {
+    detail::check_line_length(path, line, lines.number(), kMaxMatrixFileBytes);
     line = line.substr(0, line.find('#'));  // a comment runs to the end of the line
     const std::string where = line_name(lines.number()) + ": ";
     std::size_t pos = 0;
@@ -39,7 +41,7 @@ Eigen::Isometry3d parse_matrix(const std::filesystem::path& path, std::string_vi
     for (auto token = detail::next_token(line, pos, is_separator); !token.empty();
          token = detail::next_token(line, pos, is_separator)) {
       double value = 0.0;
-      if (!detail::parse_double(token, value)) {
+      if (!align3d::detail::parse_number(token, value)) {
         detail::fail(path, where + "bad number " + detail::quoted(token));
       }
       if (!std::isfinite(value)) {
@@ -90,8 +92,9 @@ Eigen::Isometry3d parse_matrix(const std::filesystem::path& path, std::string_vi
 }  // namespace detail
 
 Eigen::Isometry3d read_matrix(const std::filesystem::path& path) {
-  const auto file = detail::read_file(path, kMaxMatrixFileBytes);
-  return detail::parse_matrix(path, file.view());
+  const auto file = detail::open_file(path, kMaxMatrixFileBytes);
+  detail::BlockReader in(path, *file);
+  return detail::parse_matrix(in);
 }
 
 void write_matrix(const std::filesystem::path& path, const Eigen::Isometry3d& T) {

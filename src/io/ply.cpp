@@ -3,6 +3,7 @@
 // of each element in header order, as text lines or packed little/big-endian binary.
 #include <cmath>
 #include <string>
+#include <type_traits>
 #include <utility>
 
 #include "align3d/io/atomic_file.hpp"
@@ -18,6 +19,10 @@ using detail::quoted;
 using detail::ScalarType;
 
 enum class PlyFormat { kAscii, kBinaryLittleEndian, kBinaryBigEndian };
+constexpr std::pair<std::string_view, PlyFormat> kPlyFormats[] = {
+    {"ascii", PlyFormat::kAscii},
+    {"binary_little_endian", PlyFormat::kBinaryLittleEndian},
+    {"binary_big_endian", PlyFormat::kBinaryBigEndian}};
 
 struct PlyProperty {
   std::string name;
@@ -51,8 +56,7 @@ struct PlyElement {
 struct PlyHeader {
   PlyFormat format = PlyFormat::kAscii;
   std::vector<PlyElement> elements;
-  std::size_t data_offset = 0;  // of the first byte after end_header's line
-  std::size_t line_count = 0;   // header lines; ascii data starts on the next
+  std::size_t line_count = 0;  // header lines; ascii data starts on the next
 };
 
 // Both the original names (char, uchar, ...) and the sized ones (int8, uint8, ...) are in use.
@@ -67,13 +71,9 @@ bool parse_type(std::string_view name, ScalarType& type) {
       {"float", ScalarType::kFloat32},  {"float32", ScalarType::kFloat32},
       {"double", ScalarType::kFloat64}, {"float64", ScalarType::kFloat64},
   };
-  for (const auto& [type_name, t] : kTypes) {
-    if (name == type_name) {
-      type = t;
-      return true;
-    }
-  }
-  return false;
+  const auto found = detail::lookup(kTypes, name);
+  if (found) type = *found;
+  return found.has_value();
 }
 
 std::string_view trim_right(std::string_view s) {
@@ -81,37 +81,58 @@ std::string_view trim_right(std::string_view s) {
   return s;
 }
 
-PlyHeader parse_header(const std::filesystem::path& path, std::string_view data) {
-  detail::LineCursor lines(data.data(), data.data() + data.size());
-  std::string_view line;
-  if (!lines.next(line) || trim_right(line) != "ply") {
+// "property <type> <name>" or "property list <count type> <item type> <name>".
+PlyProperty parse_property(const std::filesystem::path& path, const std::string& where,
+                           const std::vector<std::string_view>& words) {
+  PlyProperty property;
+  if (words.size() >= 2 && words[1] == "list") {
+    if (words.size() != 5) {
+      fail(path, where + "expected 'property list <count type> <item type> <name>'");
+    }
+    if (!parse_type(words[2], property.count_type)) {
+      fail(path, where + "unknown property type " + quoted(words[2]));
+    }
+    if (!detail::is_integer(property.count_type)) {
+      fail(path, where + "list count type must be an integer type, not " + quoted(words[2]));
+    }
+    if (!parse_type(words[3], property.type)) {
+      fail(path, where + "unknown property type " + quoted(words[3]));
+    }
+    property.is_list = true;
+    property.name = words[4];
+  } else {
+    if (words.size() != 3) fail(path, where + "expected 'property <type> <name>'");
+    if (!parse_type(words[1], property.type)) {
+      fail(path, where + "unknown property type " + quoted(words[1]));
+    }
+    property.name = words[2];
+  }
+  return property;
+}
+
+PlyHeader parse_header(detail::LineReader& lines) {
+  const std::filesystem::path& path = lines.input().path();
+  if (lines.input().peek(3).substr(0, 3) != "ply") {
+    fail(path, "not a PLY file (it does not start with 'ply')");
+  }
+  detail::HeaderLines header_lines(lines, "an end_header line");
+  header_lines.next();
+  if (trim_right(header_lines.line()) != "ply") {
     fail(path, "not a PLY file (the first line is not 'ply')");
   }
   PlyHeader header;
   bool have_format = false;
   for (;;) {
-    if (!lines.next(line)) fail(path, "header ends without an end_header line");
-    if (static_cast<std::size_t>(line.data() + line.size() - data.data()) >
-        detail::kMaxHeaderBytes) {
-      fail(path, "header longer than 1 MiB without end_header");
-    }
-    const auto words = detail::split_words(line);
+    const auto& words = header_lines.next();
     if (words.empty()) continue;
-    const std::string where = "line " + std::to_string(lines.number()) + ": ";
+    const std::string where = header_lines.where();
     const std::string_view keyword = words[0];
     if (keyword == "comment" || keyword == "obj_info") continue;
     if (keyword == "end_header") break;
     if (keyword == "format") {
       if (words.size() != 3) fail(path, where + "expected 'format <encoding> 1.0'");
-      if (words[1] == "ascii") {
-        header.format = PlyFormat::kAscii;
-      } else if (words[1] == "binary_little_endian") {
-        header.format = PlyFormat::kBinaryLittleEndian;
-      } else if (words[1] == "binary_big_endian") {
-        header.format = PlyFormat::kBinaryBigEndian;
-      } else {
-        fail(path, where + "unknown PLY format " + quoted(words[1]));
-      }
+      header.format =
+          detail::lookup_or_fail(kPlyFormats, words[1], path, where + "unknown PLY format");
       if (words[2] != "1.0" && words[2] != "1") {
         fail(path, where + "unsupported PLY version " + quoted(words[2]));
       }
@@ -126,37 +147,13 @@ PlyHeader parse_header(const std::filesystem::path& path, std::string_view data)
       header.elements.push_back(std::move(element));
     } else if (keyword == "property") {
       if (header.elements.empty()) fail(path, where + "property before any element");
-      PlyProperty property;
-      if (words.size() >= 2 && words[1] == "list") {
-        if (words.size() != 5) {
-          fail(path, where + "expected 'property list <count type> <item type> <name>'");
-        }
-        if (!parse_type(words[2], property.count_type)) {
-          fail(path, where + "unknown property type " + quoted(words[2]));
-        }
-        if (!detail::is_integer(property.count_type)) {
-          fail(path, where + "list count type must be an integer type, not " + quoted(words[2]));
-        }
-        if (!parse_type(words[3], property.type)) {
-          fail(path, where + "unknown property type " + quoted(words[3]));
-        }
-        property.is_list = true;
-        property.name = words[4];
-      } else {
-        if (words.size() != 3) fail(path, where + "expected 'property <type> <name>'");
-        if (!parse_type(words[1], property.type)) {
-          fail(path, where + "unknown property type " + quoted(words[1]));
-        }
-        property.name = words[2];
-      }
-      header.elements.back().properties.push_back(std::move(property));
+      header.elements.back().properties.push_back(parse_property(path, where, words));
     } else {
       fail(path, where + "unknown header keyword " + quoted(keyword) + " (missing end_header?)");
     }
   }
   if (!have_format) fail(path, "header has no format line");
-  header.data_offset = static_cast<std::size_t>(lines.position() - data.data());
-  header.line_count = lines.number();
+  header.line_count = header_lines.number();
   return header;
 }
 
@@ -195,160 +192,119 @@ VertexLayout vertex_layout(const std::filesystem::path& path, const PlyElement& 
 
 // ---- binary ----
 
-struct BinaryData {
-  const std::filesystem::path& path;
-  const char* file_begin;
-  const char* end;
-  std::size_t offset(const char* p) const { return static_cast<std::size_t>(p - file_begin); }
-  [[noreturn]] void truncated(const char* p, const PlyElement& element,
-                              std::uint64_t record) const {
-    fail(path, "truncated data at byte offset " + std::to_string(offset(p)) + " (element '" +
-                   element.name + "', record " + std::to_string(record) + ")");
-  }
-};
-
-// A list count; false if it is negative.
-template <bool kSwap>
-bool load_count(const char* p, ScalarType type, std::uint64_t& count) {
-  std::int64_t signed_count = 0;
-  switch (type) {
-    case ScalarType::kUint8:
-      count = detail::load<std::uint8_t, kSwap>(p);
-      return true;
-    case ScalarType::kUint16:
-      count = detail::load<std::uint16_t, kSwap>(p);
-      return true;
-    case ScalarType::kUint32:
-      count = detail::load<std::uint32_t, kSwap>(p);
-      return true;
-    case ScalarType::kUint64:
-      count = detail::load<std::uint64_t, kSwap>(p);
-      return true;
-    case ScalarType::kInt8:
-      signed_count = detail::load<std::int8_t, kSwap>(p);
-      break;
-    case ScalarType::kInt16:
-      signed_count = detail::load<std::int16_t, kSwap>(p);
-      break;
-    case ScalarType::kInt32:
-      signed_count = detail::load<std::int32_t, kSwap>(p);
-      break;
-    case ScalarType::kInt64:
-      signed_count = detail::load<std::int64_t, kSwap>(p);
-      break;
-    case ScalarType::kFloat32:
-    case ScalarType::kFloat64:
-      return false;  // rejected by the header parser
-  }
-  count = static_cast<std::uint64_t>(signed_count);
-  return signed_count >= 0;
+std::string record_name(const PlyElement& element, std::uint64_t record) {
+  return "element '" + element.name + "', record " + std::to_string(record);
 }
 
-// Walks one record of an element that has list properties, recording where each property starts;
-// returns the first byte after the record. Every step is checked against the end of the data, so a
-// lying list count is an error, never an over-read.
+// A list count; false if it is negative (or of a floating-point type, which the header refuses).
 template <bool kSwap>
-const char* walk_record(const BinaryData& data, const char* p, const PlyElement& element,
-                        std::uint64_t record, const char** starts) {
+bool load_count(const char* p, ScalarType type, std::uint64_t& count) {
+  return detail::visit_scalar(type, [&](auto t) {
+    using T = decltype(t);
+    if constexpr (std::is_floating_point_v<T>) {
+      return false;
+    } else {
+      const T value = detail::load<T, kSwap>(p);
+      if constexpr (std::is_signed_v<T>) {
+        if (value < 0) return false;
+      }
+      count = static_cast<std::uint64_t>(value);
+      return true;
+    }
+  });
+}
+
+// Reads one record of an element that has list properties, property by property, storing the
+// value of property i in values[component[i]] when component[i] < 6. Lists are skipped unread
+// (align3d uses no list), each count checked against what the file holds first, so a lying count is
+// an error, never a long read.
+template <bool kSwap>
+void walk_record(detail::BlockReader& in, const PlyElement& element, std::uint64_t record,
+                 const std::vector<std::size_t>& component, std::array<double, 6>& values) {
+  const auto truncated = [&] {
+    fail(in.path(), "truncated data at byte offset " + std::to_string(in.offset()) + " (" +
+                        record_name(element, record) + ")");
+  };
   for (std::size_t i = 0; i < element.properties.size(); ++i) {
     const PlyProperty& property = element.properties[i];
-    starts[i] = p;
-    const auto left = static_cast<std::size_t>(data.end - p);
     if (!property.is_list) {
-      if (left < detail::scalar_size(property.type)) data.truncated(p, element, record);
-      p += detail::scalar_size(property.type);
+      const std::size_t size = detail::scalar_size(property.type);
+      const std::string_view data = in.peek(size);
+      if (data.size() < size) truncated();
+      if (component[i] < 6)
+        values[component[i]] = detail::load_scalar<kSwap>(data.data(), property.type);
+      in.consume(size);
       continue;
     }
     const std::size_t count_size = detail::scalar_size(property.count_type);
-    if (left < count_size) data.truncated(p, element, record);
+    const std::string_view data = in.peek(count_size);
+    if (data.size() < count_size) truncated();
+    const std::string at = " at byte offset " + std::to_string(in.offset()) + " (element '" +
+                           element.name + "', property '" + property.name + "')";
     std::uint64_t count = 0;
-    if (!load_count<kSwap>(p, property.count_type, count)) {
-      fail(data.path, "negative list count at byte offset " + std::to_string(data.offset(p)) +
-                          " (element '" + element.name + "', property '" + property.name + "')");
+    if (!load_count<kSwap>(data.data(), property.count_type, count)) {
+      fail(in.path(), "negative list count" + at);
     }
+    in.consume(count_size);
     const std::size_t item_size = detail::scalar_size(property.type);
-    if (count > (left - count_size) / item_size) {
-      fail(data.path, "list count " + std::to_string(count) + " at byte offset " +
-                          std::to_string(data.offset(p)) + " (element '" + element.name +
-                          "', property '" + property.name + "') exceeds the " +
-                          std::to_string(left - count_size) + " bytes remaining");
+    if (count > in.remaining() / item_size) {
+      fail(in.path(), "list count " + std::to_string(count) + at + " exceeds the " +
+                          std::to_string(in.remaining()) + " bytes remaining");
     }
-    p += count_size + count * item_size;
-  }
-  return p;
-}
-
-struct FixedField {
-  std::size_t offset;
-  ScalarType type;
-};
-
-// Records of a fixed stride: the common case. The per-value type switch is well predicted (the same
-// types repeat in every record); a float32-only loop measured no faster, as the time goes to
-// loading the file and filling the positions.
-template <bool kSwap>
-void decode_fixed(const char* p, std::uint64_t count, std::size_t stride,
-                  const std::array<FixedField, 6>& f, bool normals, CloudBuilder& builder) {
-  const auto get = [&](const char* record, std::size_t k) {
-    return detail::load_scalar<kSwap>(record + f[k].offset, f[k].type);
-  };
-  for (std::uint64_t r = 0; r < count; ++r, p += stride) {
-    if (normals) {
-      builder.add(get(p, 0), get(p, 1), get(p, 2), get(p, 3), get(p, 4), get(p, 5));
-    } else {
-      builder.add(get(p, 0), get(p, 1), get(p, 2));
-    }
+    if (in.skip(count * item_size) < count * item_size) truncated();
   }
 }
 
 template <bool kSwap>
-void read_binary(const std::filesystem::path& path, std::string_view file, const PlyHeader& header,
-                 std::size_t vertex_index, const VertexLayout& layout, CloudBuilder& builder) {
-  const BinaryData data{path, file.data(), file.data() + file.size()};
-  const char* p = file.data() + header.data_offset;
+void read_binary(detail::BlockReader& in, const PlyHeader& header, std::size_t vertex_index,
+                 const VertexLayout& layout, CloudBuilder& builder) {
   // Elements after the vertex element cannot change the points, so reading stops there.
   for (std::size_t e = 0; e <= vertex_index; ++e) {
     const PlyElement& element = header.elements[e];
     const bool is_vertex = e == vertex_index;
     if (element.properties.empty()) continue;  // records of zero bytes
     const std::size_t min_bytes = element.min_record_bytes();
-    const auto left = static_cast<std::size_t>(data.end - p);
+    const std::uint64_t left = in.remaining();
     if (element.count > left / min_bytes) {
-      fail(path, "element '" + element.name + "' announces " + std::to_string(element.count) +
-                     " records of " + (element.has_list() ? "at least " : "") +
-                     std::to_string(min_bytes) + " bytes at byte offset " +
-                     std::to_string(data.offset(p)) + ", but only " + std::to_string(left) +
-                     " bytes remain (truncated file?)");
+      fail(in.path(), "element '" + element.name + "' announces " + std::to_string(element.count) +
+                          " records of " + (element.has_list() ? "at least " : "") +
+                          std::to_string(min_bytes) + " bytes at byte offset " +
+                          std::to_string(in.offset()) + ", but only " + std::to_string(left) +
+                          " bytes remain (truncated file?)");
     }
     if (is_vertex) builder.reserve(static_cast<std::size_t>(element.count));
     if (!element.has_list()) {
-      if (is_vertex) {
-        std::array<FixedField, 6> fields{};
-        for (std::size_t k = 0; k < 6; ++k) {
-          if (k >= 3 && !layout.normals) break;
-          std::size_t offset = 0;
-          for (std::size_t i = 0; i < layout.index[k]; ++i) {
-            offset += detail::scalar_size(element.properties[i].type);
-          }
-          fields[k] = {offset, element.properties[layout.index[k]].type};
+      const std::uint64_t bytes = element.count * min_bytes;
+      if (!is_vertex) {
+        if (in.skip(bytes) < bytes) {
+          fail(in.path(), "truncated data at byte offset " + std::to_string(in.offset()) +
+                              " (element '" + element.name + "')");
         }
-        decode_fixed<kSwap>(p, element.count, min_bytes, fields, layout.normals, builder);
+        continue;
       }
-      p += element.count * min_bytes;
+      detail::RecordLayout records{min_bytes, {}, layout.normals};
+      for (std::size_t k = 0; k < (layout.normals ? 6u : 3u); ++k) {
+        for (std::size_t i = 0; i < layout.index[k]; ++i) {
+          records.fields[k].offset += detail::scalar_size(element.properties[i].type);
+        }
+        records.fields[k].type = element.properties[layout.index[k]].type;
+      }
+      detail::decode_records<kSwap>(in, element.count, records, builder,
+                                    "element '" + element.name + "'");
       continue;
     }
-    std::vector<const char*> starts(element.properties.size());
-    const auto get = [&](std::size_t k) {
-      return detail::load_scalar<kSwap>(starts[layout.index[k]],
-                                        element.properties[layout.index[k]].type);
-    };
+    std::vector<std::size_t> component(element.properties.size(), 6);
+    if (is_vertex) {
+      for (std::size_t k = 0; k < (layout.normals ? 6u : 3u); ++k) component[layout.index[k]] = k;
+    }
+    std::array<double, 6> v{};
     for (std::uint64_t r = 0; r < element.count; ++r) {
-      p = walk_record<kSwap>(data, p, element, r, starts.data());
+      walk_record<kSwap>(in, element, r, component, v);
       if (!is_vertex) continue;
       if (layout.normals) {
-        builder.add(get(0), get(1), get(2), get(3), get(4), get(5));
+        builder.add(v[0], v[1], v[2], v[3], v[4], v[5]);
       } else {
-        builder.add(get(0), get(1), get(2));
+        builder.add(v[0], v[1], v[2]);
       }
     }
   }
@@ -356,17 +312,63 @@ void read_binary(const std::filesystem::path& path, std::string_view file, const
 
 // ---- ascii ----
 
-bool is_blank(std::string_view line) {
-  for (const char c : line) {
-    if (!detail::is_space(c)) return false;
+// Parses one text record of `element` into `values` (by property; a list's values are checked and
+// skipped, as are all values of elements other than the vertex).
+void parse_ascii_record(const std::filesystem::path& path, std::string_view line,
+                        std::size_t number, const PlyElement& element, bool is_vertex,
+                        std::vector<double>& values) {
+  // Built only on error: one string per record would dominate the parse time.
+  const auto where = [&] { return "line " + std::to_string(number) + ": "; };
+  std::size_t pos = 0;
+  for (std::size_t i = 0; i < element.properties.size(); ++i) {
+    const PlyProperty& property = element.properties[i];
+    const auto too_few = [&] {
+      fail(path, where() + "too few values for element '" + element.name + "' (property '" +
+                     property.name + "' missing)");
+    };
+    if (!property.is_list && !is_vertex) {
+      // Other elements' values are skipped unparsed: only their number matters here.
+      if (detail::next_token(line, pos, detail::kSpace).empty()) too_few();
+      continue;
+    }
+    double number_value = 0.0;
+    const std::size_t token_pos = pos;
+    const auto token = detail::next_number(line, pos, detail::kSpace, number_value);
+    if (token == detail::Token::kEnd) too_few();
+    const auto bad = [&](const std::string& what) {
+      fail(path, where() + what + " " + quoted(detail::next_token(line, pos, detail::kSpace)) +
+                     " for property '" + property.name + "'");
+    };
+    if (token == detail::Token::kNotANumber) {
+      bad(property.is_list ? "bad list count" : "bad number");
+    }
+    if (!property.is_list) {
+      values[i] = number_value;
+      continue;
+    }
+    // A count beyond the line's length fails below at the line's end; the bound only keeps the
+    // conversion to an integer defined.
+    if (!(number_value >= 0.0) || number_value != std::floor(number_value) ||
+        number_value > static_cast<double>(line.size())) {
+      pos = token_pos;
+      bad("bad list count");
+    }
+    for (auto k = static_cast<std::size_t>(number_value); k > 0; --k) {
+      if (detail::next_token(line, pos, detail::kSpace).empty()) {
+        fail(path, where() + "too few values for list '" + property.name + "' (announced " +
+                       std::to_string(static_cast<std::size_t>(number_value)) + ")");
+      }
+    }
   }
-  return true;
+  if (!detail::next_token(line, pos, detail::kSpace).empty()) {
+    fail(path, where() + "too many values for element '" + element.name + "' (expected " +
+                   std::to_string(element.properties.size()) + " properties)");
+  }
 }
 
-void read_ascii(const std::filesystem::path& path, std::string_view file, const PlyHeader& header,
-                std::size_t vertex_index, const VertexLayout& layout, CloudBuilder& builder) {
-  detail::LineCursor lines(file.data() + header.data_offset, file.data() + file.size(),
-                           header.line_count + 1);
+void read_ascii(detail::LineReader& lines, const PlyHeader& header, std::size_t vertex_index,
+                const VertexLayout& layout, CloudBuilder& builder) {
+  const std::filesystem::path& path = lines.input().path();
   std::vector<double> values;
   for (std::size_t e = 0; e <= vertex_index; ++e) {
     const PlyElement& element = header.elements[e];
@@ -375,7 +377,7 @@ void read_ascii(const std::filesystem::path& path, std::string_view file, const 
     if (is_vertex) {
       // Every value takes at least one character and one separator (the last line may lack its
       // newline, hence the + 1).
-      const auto left = static_cast<std::size_t>(lines.end() - lines.position());
+      const std::uint64_t left = lines.input().remaining();
       const std::size_t min_bytes = 2 * element.properties.size();
       if (element.count > (left + 1) / min_bytes) {
         fail(path, "element 'vertex' announces " + std::to_string(element.count) +
@@ -389,60 +391,14 @@ void read_ascii(const std::filesystem::path& path, std::string_view file, const 
     std::string_view line;
     for (std::uint64_t r = 0; r < element.count; ++r) {
       do {
-        if (!lines.next(line)) {
+        if (!lines.next(line, detail::kMaxRecordLineBytes)) {
           fail(path, "truncated data: element '" + element.name + "' announces " +
                          std::to_string(element.count) + " records, the file ends after " +
                          std::to_string(r) + " (line " + std::to_string(lines.number()) + ")");
         }
-      } while (is_blank(line));
+      } while (detail::is_blank(line));
       detail::check_line_length(path, line, lines.number(), detail::kMaxRecordLineBytes);
-      // Built only on error: one string per record would dominate the parse time.
-      const auto where = [&] { return "line " + std::to_string(lines.number()) + ": "; };
-      std::size_t pos = 0;
-      for (std::size_t i = 0; i < element.properties.size(); ++i) {
-        const PlyProperty& property = element.properties[i];
-        const auto too_few = [&] {
-          fail(path, where() + "too few values for element '" + element.name + "' (property '" +
-                         property.name + "' missing)");
-        };
-        if (!property.is_list && !is_vertex) {
-          // Other elements' values are skipped unparsed: only their number matters here.
-          if (detail::next_token(line, pos, detail::kSpace).empty()) too_few();
-          continue;
-        }
-        double number = 0.0;
-        const std::size_t token_pos = pos;
-        const auto token = detail::next_number(line, pos, detail::kSpace, number);
-        if (token == detail::Token::kEnd) too_few();
-        const auto bad = [&](const std::string& what) {
-          fail(path, where() + what + " " + quoted(detail::next_token(line, pos, detail::kSpace)) +
-                         " for property '" + property.name + "'");
-        };
-        if (token == detail::Token::kNotANumber) {
-          bad(property.is_list ? "bad list count" : "bad number");
-        }
-        if (!property.is_list) {
-          values[i] = number;
-          continue;
-        }
-        // A count beyond the line's length fails below at the line's end; the bound only keeps the
-        // conversion to an integer defined.
-        if (!(number >= 0.0) || number != std::floor(number) ||
-            number > static_cast<double>(line.size())) {
-          pos = token_pos;
-          bad("bad list count");
-        }
-        for (auto k = static_cast<std::size_t>(number); k > 0; --k) {
-          if (detail::next_token(line, pos, detail::kSpace).empty()) {
-            fail(path, where() + "too few values for list '" + property.name + "' (announced " +
-                           std::to_string(static_cast<std::size_t>(number)) + ")");
-          }
-        }
-      }
-      if (!detail::next_token(line, pos, detail::kSpace).empty()) {
-        fail(path, where() + "too many values for element '" + element.name + "' (expected " +
-                       std::to_string(element.properties.size()) + " properties)");
-      }
+      parse_ascii_record(path, line, lines.number(), element, is_vertex, values);
       if (!is_vertex) continue;
       const auto v = [&](std::size_t k) {
         const std::size_t i = layout.index[k];
@@ -461,9 +417,9 @@ void read_ascii(const std::filesystem::path& path, std::string_view file, const 
 
 namespace detail {
 
-PointCloud read_ply(const std::filesystem::path& path, std::string_view data,
-                    std::size_t& dropped) {
-  const PlyHeader header = parse_header(path, data);
+PointCloud read_ply(BlockReader& in, ReadInfo& info) {
+  LineReader lines(in);
+  const PlyHeader header = parse_header(lines);
   std::size_t vertex_index = header.elements.size();
   for (std::size_t e = 0; e < header.elements.size(); ++e) {
     if (header.elements[e].name == "vertex") {
@@ -471,22 +427,26 @@ PointCloud read_ply(const std::filesystem::path& path, std::string_view data,
       break;
     }
   }
-  if (vertex_index == header.elements.size()) fail(path, "no vertex element in the header");
-  const VertexLayout layout = vertex_layout(path, header.elements[vertex_index]);
+  if (vertex_index == header.elements.size()) fail(in.path(), "no vertex element in the header");
+  const VertexLayout layout = vertex_layout(in.path(), header.elements[vertex_index]);
 
-  CloudBuilder builder(layout.normals);
+  CloudBuilder builder(in.path(), layout.normals);
   switch (header.format) {
     case PlyFormat::kAscii:
-      read_ascii(path, data, header, vertex_index, layout, builder);
+      read_ascii(lines, header, vertex_index, layout, builder);
       break;
     case PlyFormat::kBinaryLittleEndian:
-      read_binary<kHostIsBigEndian>(path, data, header, vertex_index, layout, builder);
+      read_binary<kHostIsBigEndian>(in, header, vertex_index, layout, builder);
       break;
     case PlyFormat::kBinaryBigEndian:
-      read_binary<!kHostIsBigEndian>(path, data, header, vertex_index, layout, builder);
+      read_binary<!kHostIsBigEndian>(in, header, vertex_index, layout, builder);
       break;
   }
-  return builder.finish(dropped);
+  info.width = header.elements[vertex_index].count;
+  info.height = 1;
+  PointCloud cloud = builder.finish();
+  info.dropped_non_finite = builder.dropped();
+  return cloud;
 }
 
 }  // namespace detail

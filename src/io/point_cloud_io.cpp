@@ -1,9 +1,8 @@
 #include "align3d/io/point_cloud_io.hpp"
 
-#include <cerrno>
-#include <cstdio>
-#include <cstring>
-#include <fstream>
+#include <cmath>
+#include <cstdint>
+#include <limits>
 #include <new>
 
 #include "align3d/error.hpp"
@@ -36,53 +35,61 @@ std::string quoted(std::string_view token) {
   return out;
 }
 
-FileBytes read_file(const std::filesystem::path& path, std::uint64_t max_bytes) {
-  std::error_code ec;
-  const auto status = std::filesystem::status(path, ec);
-  if (status.type() == std::filesystem::file_type::not_found) fail(path, "file not found");
-  if (ec) fail(path, "cannot access: " + ec.message());
-  if (!std::filesystem::is_regular_file(status)) fail(path, "not a regular file");
-  const std::uint64_t size = std::filesystem::file_size(path, ec);
-  if (ec) fail(path, "cannot determine the file size: " + ec.message());
-  if (size == 0) fail(path, "file is empty");
-  if (size > max_bytes) {
-    fail(path, "file is too large (" + std::to_string(size) + " bytes, limit " +
-                   std::to_string(max_bytes) + ")");
-  }
-  std::ifstream in(path, std::ios::binary);
-  if (!in) fail(path, std::string("cannot open: ") + std::strerror(errno));
-  std::unique_ptr<char[]> data;
-  try {
-    // for_overwrite: zero-filling a buffer that the read overwrites at once would touch every page
-    // twice.
-    data = std::make_unique_for_overwrite<char[]>(static_cast<std::size_t>(size));
-  } catch (const std::bad_alloc&) {
-    fail(path, "not enough memory to load " + std::to_string(size) + " bytes");
-  }
-  in.read(data.get(), static_cast<std::streamsize>(size));
-  const auto got = static_cast<std::uint64_t>(in.gcount());
-  if (got != size) {
-    fail(path, "read error: got " + std::to_string(got) + " of " + std::to_string(size) +
-                   " bytes (file changed while reading?)");
-  }
-  return FileBytes(std::move(data), static_cast<std::size_t>(size));
+void fail_out_of_memory(const std::filesystem::path& path, const std::string& what) {
+  throw DataError(path.string() + ": not enough memory for " + what);
 }
 
-std::vector<std::string_view> split_words(std::string_view line) {
-  std::vector<std::string_view> words;
-  std::size_t pos = 0;
-  for (;;) {
-    const auto word = next_token(line, pos, kSpace);
-    if (word.empty()) return words;
-    words.push_back(word);
+void CloudBuilder::reserve(std::size_t count) {
+  try {
+    positions_.reserve(count);
+    if (normals_ok_) normals_.reserve(count);
+  } catch (const std::bad_alloc&) {
+    const double bytes =
+        static_cast<double>(count) * (normals_ok_ ? 2 : 1) * sizeof(Eigen::Vector3d);
+    fail_out_of_memory(
+        path_, std::to_string(count) + " points (" +
+                   std::to_string(static_cast<std::uint64_t>(std::ceil(bytes / (1 << 20)))) +
+                   " MiB" + (normals_ok_ ? " with normals)" : ")"));
   }
+}
+
+void CloudBuilder::allocate(std::size_t count) {
+  reserve(count);
+  positions_.resize(count);
+  if (normals_ok_) normals_.resize(count);
+  columns_ = true;
+}
+
+PointCloud CloudBuilder::finish() {
+  if (columns_) {
+    // The rules of add(), in place: point i moves to `kept` <= i.
+    std::size_t kept = 0;
+    for (std::size_t i = 0; i < positions_.size(); ++i) {
+      const Eigen::Vector3d p = positions_[i];
+      if (!p.allFinite()) {
+        ++dropped_;
+        continue;
+      }
+      positions_[kept] = p;
+      if (normals_ok_) keep_normal(normals_[i], kept);
+      ++kept;
+    }
+    positions_.resize(kept);
+    if (normals_ok_) normals_.resize(kept);
+    columns_ = false;
+  }
+  PointCloud cloud;
+  cloud.positions = std::move(positions_);
+  if (normals_ok_) {
+    for (auto& n : normals_) n.normalize();
+    cloud.normals = std::move(normals_);
+  }
+  return cloud;
 }
 
 }  // namespace detail
 
 namespace {
-
-enum class Format { kPly, kPcd, kXyz, kUnknown };
 
 std::string lower_extension(const std::filesystem::path& path) {
   std::string ext = path.extension().string();
@@ -90,13 +97,6 @@ std::string lower_extension(const std::filesystem::path& path) {
     if (c >= 'A' && c <= 'Z') c = static_cast<char>(c - 'A' + 'a');
   }
   return ext;
-}
-
-Format format_of(const std::string& ext) {
-  if (ext == ".ply") return Format::kPly;
-  if (ext == ".pcd") return Format::kPcd;
-  if (ext == ".xyz" || ext == ".txt" || ext == ".csv") return Format::kXyz;
-  return Format::kUnknown;
 }
 
 std::string unknown_format_problem(const std::string& ext) {
@@ -107,28 +107,44 @@ std::string unknown_format_problem(const std::string& ext) {
 
 }  // namespace
 
-PointCloud read_point_cloud(const std::filesystem::path& path, ReadInfo* info) {
+std::optional<CloudFormat> cloud_format(const std::filesystem::path& path) {
   const std::string ext = lower_extension(path);
-  const Format format = format_of(ext);
-  if (format == Format::kUnknown) detail::fail(path, unknown_format_problem(ext));
+  if (ext == ".ply") return CloudFormat::kPly;
+  if (ext == ".pcd") return CloudFormat::kPcd;
+  if (ext == ".xyz" || ext == ".txt" || ext == ".csv") return CloudFormat::kXyz;
+  return std::nullopt;
+}
 
-  const auto file = detail::read_file(path, detail::kMaxFileBytes);
-  std::size_t dropped = 0;
+PointCloud read_point_cloud(const std::filesystem::path& path, ReadInfo* info) {
+  const std::optional<CloudFormat> format = cloud_format(path);
+  if (!format) detail::fail(path, unknown_format_problem(lower_extension(path)));
+
+  // No size limit: the file is streamed (block_reader.hpp), so only the cloud grows with it.
+  const auto file = detail::open_file(path, std::numeric_limits<std::uint64_t>::max());
+  detail::BlockReader in(path, *file);
+  ReadInfo read;
   PointCloud cloud;
-  switch (format) {
-    case Format::kPly:
-      cloud = detail::read_ply(path, file.view(), dropped);
-      break;
-    case Format::kPcd:
-      cloud = detail::read_pcd(path, file.view(), dropped);
-      break;
-    case Format::kXyz:
-    case Format::kUnknown:  // rejected above
-      cloud = detail::read_xyz(path, file.view(), dropped);
-      break;
+  try {
+    switch (*format) {
+      case CloudFormat::kPly:
+        cloud = detail::read_ply(in, read);
+        break;
+      case CloudFormat::kPcd:
+        cloud = detail::read_pcd(in, read);
+        break;
+      case CloudFormat::kXyz:
+        cloud = detail::read_xyz(in, read);
+        break;
+    }
+  } catch (const std::bad_alloc&) {
+    // Allocations that a count announces are reported where they are made (CloudBuilder); this
+    // catches any other, e.g. a text file growing while it is read.
+    detail::fail_out_of_memory(path,
+                               "the points read up to byte offset " + std::to_string(in.offset()));
   }
-  if (info != nullptr) info->dropped_non_finite = dropped;
+  if (info != nullptr) *info = read;
   if (cloud.empty()) {
+    const std::size_t dropped = read.dropped_non_finite;
     detail::fail(path, dropped == 0 ? std::string("contains no points")
                                     : "contains no points (all " + std::to_string(dropped) +
                                           " had a NaN or Inf coordinate)");
@@ -136,19 +152,21 @@ PointCloud read_point_cloud(const std::filesystem::path& path, ReadInfo* info) {
   return cloud;
 }
 
-void write_point_cloud(const std::filesystem::path& path, const PointCloud& cloud) {
-  const std::string ext = lower_extension(path);
-  switch (format_of(ext)) {
-    case Format::kPly:
-      return write_ply(path, cloud, PlyEncoding::kBinaryLittleEndian);
-    case Format::kPcd:
-      return write_pcd(path, cloud, PcdEncoding::kBinary);
-    case Format::kXyz:
-      return write_xyz(path, cloud);
-    case Format::kUnknown:
-      break;
+void write_point_cloud(const std::filesystem::path& path, const PointCloud& cloud,
+                       const WriteSettings& settings) {
+  const std::optional<CloudFormat> format = cloud_format(path);
+  if (!format) {
+    throw OutputError(path.string() +
+                      ": cannot write: " + unknown_format_problem(lower_extension(path)));
   }
-  throw OutputError(path.string() + ": cannot write: " + unknown_format_problem(ext));
+  switch (*format) {
+    case CloudFormat::kPly:
+      return write_ply(path, cloud, settings.ply);
+    case CloudFormat::kPcd:
+      return write_pcd(path, cloud, settings.pcd, settings.pcd_layout);
+    case CloudFormat::kXyz:
+      return write_xyz(path, cloud);
+  }
 }
 
 }  // namespace align3d::io

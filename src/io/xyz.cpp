@@ -18,22 +18,38 @@ constexpr std::size_t kMaxLineBytes = std::size_t{64} << 10;
 // therefore does not shift the columns; such files are rare for point lists).
 constexpr auto is_separator = [](char c) { return detail::is_space(c) || c == ',' || c == ';'; };
 
+using detail::BlockReader;
+
+// The number of rows, counted before parsing so that the points are allocated once: a growing
+// vector holds its old and its new copy at once when it doubles, up to twice the final points. A
+// second read of the file costs far less than parsing it. "\r\n" counts once, as does '\r' alone
+// (classic Mac OS line ends).
+std::uint64_t count_rows(BlockReader& in) {
+  std::uint64_t lf = 0, cr = 0;
+  for (std::string_view data = in.peek(1); !data.empty(); data = in.peek(1)) {
+    lf += static_cast<std::uint64_t>(std::count(data.begin(), data.end(), '\n'));
+    cr += static_cast<std::uint64_t>(std::count(data.begin(), data.end(), '\r'));
+    in.consume(data.size());
+  }
+  in.rewind();
+  return std::max(lf, cr) + 1;
+}
+
 }  // namespace
 
 namespace detail {
 
-PointCloud read_xyz(const std::filesystem::path& path, std::string_view data,
-                    std::size_t& dropped) {
-  CloudBuilder builder(false);
-  // One reservation instead of regrowth. A point row takes at least 6 bytes ("0 0 0\n"), which
-  // bounds the reservation for files of blank or comment lines.
-  const auto rows = static_cast<std::size_t>(std::count(data.begin(), data.end(), '\n')) + 1;
-  builder.reserve(std::min(rows, data.size() / 6 + 1));
+PointCloud read_xyz(BlockReader& in, ReadInfo& info) {
+  const std::filesystem::path& path = in.path();
+  CloudBuilder builder(path, false);
+  // A point row takes at least 6 bytes ("0 0 0\n"), which bounds the reservation for files of blank
+  // or comment lines.
+  builder.reserve(static_cast<std::size_t>(std::min(count_rows(in), in.remaining() / 6 + 1)));
 
-  LineCursor lines(data.data(), data.data() + data.size());
+  LineReader lines(in);
   std::string_view line;
   bool seen_row = false;
-  while (lines.next(line)) {
+  while (lines.next(line, kMaxLineBytes)) {
     check_line_length(path, line, lines.number(), kMaxLineBytes);
     const auto first = line.find_first_not_of(" \t\r\v\f");
     if (first == std::string_view::npos || line[first] == '#') continue;
@@ -61,7 +77,11 @@ PointCloud read_xyz(const std::filesystem::path& path, std::string_view data,
     }
     builder.add(xyz[0], xyz[1], xyz[2]);
   }
-  return builder.finish(dropped);
+  PointCloud cloud = builder.finish();
+  info.width = cloud.size() + builder.dropped();
+  info.height = 1;
+  info.dropped_non_finite = builder.dropped();
+  return cloud;
 }
 
 }  // namespace detail

@@ -89,6 +89,11 @@ void check_flatness(const PointCloud& cloud, bool robust, RectifyResult& out) {
 }  // namespace
 
 RectifyResult rectify(const PointCloud& cloud, const RectifySettings& settings) {
+  // Only up's direction counts; scaling by its largest component keeps a tiny (even subnormal) one
+  // from vanishing in the dot product below.
+  const double up_scale = settings.up ? settings.up->cwiseAbs().maxCoeff() : 1.0;
+  if (!(up_scale > 0) || !std::isfinite(up_scale))
+    throw std::invalid_argument("rectify: RectifySettings::up must be a finite non-zero vector");
   const auto& points = cloud.positions;
   std::vector<std::size_t> inliers;
   Plane plane;
@@ -103,9 +108,7 @@ RectifyResult rectify(const PointCloud& cloud, const RectifySettings& settings) 
   }
   double sign = 0;
   if (settings.up) {
-    if (!(settings.up->norm() > 0) || !settings.up->allFinite())
-      throw std::invalid_argument("rectify: `up` must be a finite non-zero vector");
-    sign = plane.normal.dot(*settings.up) >= 0 ? 1.0 : -1.0;
+    sign = plane.normal.dot(*settings.up / up_scale) >= 0 ? 1.0 : -1.0;
   }
   if (sign == 0) sign = part_side(points, plane, inliers);
   if (sign == 0) sign = plane.normal.z() >= 0 ? 1.0 : -1.0;

@@ -19,8 +19,14 @@
 // announced, or all dropped) is an IoError "contains no points" (ReadInfo is filled in first). Text
 // numbers are read independently of the locale; in .xyz/.txt/.csv a run of separators counts as
 // one, and a first row that does not start with a number (a CSV header such as "x,y,z") is skipped.
+// Text lines end with '\n', "\r\n" or '\r' alone (classic Mac OS), whichever ends the first line.
 // A float32 property (PLY float, PCD F 4) is rounded to float32 even when written as text, so a
 // cloud reads the same from every encoding.
+//
+// Files are streamed through a 4 MiB buffer, so reading costs the cloud (24 bytes a point, 48 with
+// normals) plus a constant, whatever the file's size; a .xyz/.txt/.csv file is read twice, first to
+// count its rows. Running out of memory while reading is a DataError (not an IoError: the file is
+// fine) whose message names the file and what was being allocated.
 //
 // Every writer is atomic: it writes a temporary file in the destination's folder and renames it, so
 // the destination holds either the complete new file or whatever it held before (OutputError on
@@ -28,18 +34,36 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <filesystem>
+#include <optional>
 #include <string>
 
 #include "align3d/point_cloud.hpp"
 
 namespace align3d::io {
 
+// The pose a PCD file records for the sensor (VIEWPOINT tx ty tz qw qx qy qz): its position and
+// orientation in the cloud's frame. Neither align3d nor PCL applies it to the points.
+struct Viewpoint {
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();
+  Eigen::Quaterniond orientation = Eigen::Quaterniond::Identity();  // unit
+};
+
 struct ReadInfo {
   std::size_t dropped_non_finite = 0;  // points dropped because a coordinate was NaN or Inf
+  // The file's points as width x height, the dropped ones included: a PCD's WIDTH and HEIGHT (an
+  // organized cloud, HEIGHT > 1, lists its rows one after another); other formats: the count, 1.
+  std::size_t width = 0;
+  std::size_t height = 0;
+  Viewpoint viewpoint;  // a PCD's VIEWPOINT; other formats: the identity
 };
 
 PointCloud read_point_cloud(const std::filesystem::path& path, ReadInfo* info = nullptr);
+
+enum class CloudFormat { kPly, kPcd, kXyz };
+// The format that `path`'s extension names (.ply; .pcd; .xyz, .txt, .csv; in any case), or nullopt.
+std::optional<CloudFormat> cloud_format(const std::filesystem::path& path);
 
 enum class PlyEncoding { kAscii, kBinaryLittleEndian, kBinaryBigEndian };
 enum class PcdEncoding { kAscii, kBinary, kBinaryCompressed };
@@ -48,15 +72,36 @@ enum class PcdEncoding { kAscii, kBinary, kBinaryCompressed };
 // Coordinates in float32 keep ~7 significant digits: 0.1 µm at 1 m, ample for scanner data.
 void write_ply(const std::filesystem::path& path, const PointCloud& cloud,
                PlyEncoding encoding = PlyEncoding::kBinaryLittleEndian);
-// binary_compressed stores its sizes as uint32, so it holds at most 4 GiB of data (~178 million
-// points with normals); larger clouds are an OutputError there.
+
+// How write_pcd lays the points out, and the sensor pose it records.
+struct PcdLayout {
+  // 0 x 0: unorganized, WIDTH = the points written, HEIGHT 1; a point with a NaN or Inf coordinate
+  // is left out. Otherwise an organized cloud (a depth camera's image): width * height must be the
+  // cloud's size (else std::invalid_argument), row after row, every point written in its place,
+  // NaN ones included (pixels without a return; readers drop and count them).
+  std::size_t width = 0;
+  std::size_t height = 0;
+  Viewpoint viewpoint;  // VIEWPOINT, written exactly (17 digits)
+};
+
+// Writes float32 x y z (and normal_x/y/z when the cloud has normals). binary_compressed stores its
+// sizes as uint32, so it holds at most 4 GiB of data (~178 million points with normals); larger
+// clouds are an OutputError there.
 void write_pcd(const std::filesystem::path& path, const PointCloud& cloud,
-               PcdEncoding encoding = PcdEncoding::kBinary);
+               PcdEncoding encoding = PcdEncoding::kBinary, const PcdLayout& layout = {});
 void write_xyz(const std::filesystem::path& path,
                const PointCloud& cloud);  // %.9g, one point a row
 
-// Writes by extension: .ply binary little-endian, .pcd binary, .xyz/.txt/.csv text (separated by
-// spaces, also for .csv). Any other extension is an OutputError, and nothing is written.
-void write_point_cloud(const std::filesystem::path& path, const PointCloud& cloud);
+// The choices write_point_cloud leaves to the caller, each for its format.
+struct WriteSettings {
+  PlyEncoding ply = PlyEncoding::kBinaryLittleEndian;  // for .ply
+  PcdEncoding pcd = PcdEncoding::kBinary;              // for .pcd
+  PcdLayout pcd_layout;                                // for .pcd
+};
+
+// Writes by extension: .ply, .pcd as `settings` say, .xyz/.txt/.csv text (separated by spaces, also
+// for .csv). Any other extension is an OutputError, and nothing is written.
+void write_point_cloud(const std::filesystem::path& path, const PointCloud& cloud,
+                       const WriteSettings& settings = {});
 
 }  // namespace align3d::io

@@ -27,7 +27,7 @@ struct RectifySettings {
   // inliers, which holds on a scene with parts, walls or clutter; false: least squares on every
   // point (the chapter's fit, right only when the cloud is the plate alone).
   bool robust = true;
-  std::optional<Eigen::Vector3d> up;  // non-zero; std::invalid_argument otherwise
+  std::optional<Eigen::Vector3d> up;  // any finite non-zero length; else std::invalid_argument
   RansacPlaneSettings ransac;
 };
 

@@ -121,6 +121,11 @@ write("pcd_compressed_corrupt_backref.pcd",
 write("pcd_compressed_short_size_header.pcd", pcd_header("binary_compressed", 1) + "abc")
 write("pcd_collinear.pcd",
       pcd_header("binary", 40).encode() + b"".join(f32(i, 2 * i, -i) for i in range(40)))
+write("pcd_viewpoint_six_numbers.pcd",
+      pcd_header("ascii", 1).replace("VIEWPOINT 0 0 0 1 0 0 0", "VIEWPOINT 0 0 0 1 0 0") + "1 2 3\n")
+# Classic Mac OS line ends ('\r' alone): the header must still be read line by line.
+write("pcd_classic_mac_truncated_binary.pcd",
+      pcd_header("binary", 3).replace("\n", "\r").encode() + f32(1, 2, 3, 4, 5, 6))
 
 # ---- XYZ / TXT / CSV ----
 write("xyz_empty.xyz", "")
@@ -133,6 +138,7 @@ write("xyz_is_a_ply.xyz", ply_header("binary_little_endian", 1).encode() + f32(1
 write("xyz_five_points.xyz", "0 0 0\n1 0 0\n0 1 0\n0 0 1\n1 1 1\n")
 write("xyz_all_points_identical.csv", "".join("7.25,-1,3\n" for _ in range(30)))
 write("xyz_collinear.xyz", "".join(f"{i} {2 * i} {3 - i}\n" for i in range(50)))
+write("xyz_classic_mac_non_numeric.xyz", "1 2 3\r4 5 6\r# seven\r7 eight 9\r")
 write("cloud.obj", "v 1 2 3\nv 4 5 6\n")
 write("cloud_without_extension", "1 2 3\n4 5 6\n")
 
