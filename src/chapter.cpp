@@ -1,10 +1,5 @@
 #include "align3d/chapter.hpp"
 
-#include <fstream>
-#include <nlohmann/json.hpp>
-
-#include "align3d/io/matrix_io.hpp"
-#include "align3d/io/point_cloud_io.hpp"
 #include "align3d/se3.hpp"
 #include "align3d/synth/scenes.hpp"
 
@@ -36,25 +31,6 @@ ChapterScene generate_chapter_scene(std::uint64_t seed) {
           s.T_model_scan,  synth::make_plate(synth::chapter_plate(seed, false)).cloud,
           cluttered.cloud, cluttered.true_normal,
           cs.noise_sigma};
-}
-
-ChapterScene read_chapter_scene(const std::filesystem::path& dir) {
-  ChapterScene scene;
-  scene.model = io::read_point_cloud(dir / "model.ply");
-  scene.scan = io::read_point_cloud(dir / "scan.ply");
-  scene.T_model_scan = io::read_matrix(dir / "ground_truth.txt");
-  scene.plate = io::read_point_cloud(dir / "plate.ply");
-  scene.plate_cluttered = io::read_point_cloud(dir / "plate_cluttered.ply");
-  std::ifstream in(dir / "scene.json");
-  const nlohmann::json meta = nlohmann::json::parse(in, nullptr, false);
-  if (!meta.is_discarded()) {
-    const auto normal = meta.value("/plate_cluttered/true_normal"_json_pointer, nlohmann::json());
-    if (normal.is_array() && normal.size() == 3)
-      scene.cluttered_true_normal = {normal[0].get<double>(), normal[1].get<double>(),
-                                     normal[2].get<double>()};
-    scene.noise_sigma = meta.value("/scan/noise_sigma"_json_pointer, scene.noise_sigma);
-  }
-  return scene;
 }
 
 AlignSettings chapter_settings(IcpMethod method, const Eigen::Isometry3d& initial_pose) {

@@ -23,11 +23,9 @@ struct ChapterScene {
   double noise_sigma = 0.1;  // of the scan, for the noise floor in figure 39.3
 };
 
-// Generated (synth::make_conveyor_scene + plates, as `align3d synth` writes them) or read from a
-// directory written by `align3d synth` (model.ply, scan.ply, ground_truth.txt, plate.ply,
-// plate_cluttered.ply, and scene.json for the noise level and the cluttered plate's normal).
+// Generated as `align3d synth` writes it: synth::make_conveyor_scene and the plates
+// (report::read_chapter_scene reads such a directory back).
 ChapterScene generate_chapter_scene(std::uint64_t seed = 39);
-ChapterScene read_chapter_scene(const std::filesystem::path& dir);
 
 struct IcpExperiment {
   std::string name;

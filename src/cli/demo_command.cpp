@@ -25,7 +25,7 @@ int run_demo(const DemoOptions& o, Streams io) {
   say(o.scene.empty() ? "generating the chapter's scene (seed " + std::to_string(o.seed) + ")"
                       : "reading the scene from " + o.scene);
   const ChapterScene scene =
-      o.scene.empty() ? generate_chapter_scene(o.seed) : read_chapter_scene(o.scene);
+      o.scene.empty() ? generate_chapter_scene(o.seed) : report::read_chapter_scene(o.scene);
   say("running the experiments (" + std::to_string(scene.model.size()) + " model points, " +
       std::to_string(scene.scan.size()) + " scan points)");
   ChapterResults results;

@@ -1,12 +1,15 @@
 #include "align3d/report/chapter_report.hpp"
 
 #include <cmath>
+#include <fstream>
 #include <iomanip>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
 #include "align3d/error.hpp"
 #include "align3d/io/atomic_file.hpp"
+#include "align3d/io/matrix_io.hpp"
+#include "align3d/io/point_cloud_io.hpp"
 #include "align3d/report/figure.hpp"
 #include "align3d/report/html.hpp"
 #include "align3d/report/json.hpp"
@@ -150,6 +153,25 @@ std::string warnings_html(const ChapterResults& r) {
 }
 
 }  // namespace
+
+ChapterScene read_chapter_scene(const std::filesystem::path& dir) {
+  ChapterScene scene;
+  scene.model = io::read_point_cloud(dir / "model.ply");
+  scene.scan = io::read_point_cloud(dir / "scan.ply");
+  scene.T_model_scan = io::read_matrix(dir / "ground_truth.txt");
+  scene.plate = io::read_point_cloud(dir / "plate.ply");
+  scene.plate_cluttered = io::read_point_cloud(dir / "plate_cluttered.ply");
+  std::ifstream in(dir / "scene.json");
+  const nlohmann::json meta = nlohmann::json::parse(in, nullptr, false);
+  if (!meta.is_discarded()) {
+    const auto normal = meta.value("/plate_cluttered/true_normal"_json_pointer, nlohmann::json());
+    if (normal.is_array() && normal.size() == 3)
+      scene.cluttered_true_normal = {normal[0].get<double>(), normal[1].get<double>(),
+                                     normal[2].get<double>()};
+    scene.noise_sigma = meta.value("/scan/noise_sigma"_json_pointer, scene.noise_sigma);
+  }
+  return scene;
+}
 
 std::string chapter_table(const ChapterResults& results) {
   std::ostringstream out;

@@ -9,6 +9,11 @@
 
 namespace align3d::report {
 
+// The scene from a directory written by `align3d synth` (model.ply, scan.ply, ground_truth.txt,
+// plate.ply, plate_cluttered.ply, and scene.json for the noise level and the cluttered plate's
+// normal). Throws IoError naming the file at fault.
+ChapterScene read_chapter_scene(const std::filesystem::path& dir);
+
 // The comparison table (markdown): experiment | quantity | chapter | ours.
 std::string chapter_table(const ChapterResults& results);
 
