@@ -8,8 +8,6 @@
 //              (NormalCache); --all-normals estimates all of them first (timed), as Open3D and PCL
 //              do. --auto: the same but with no rejection rule, i.e. the library's `auto` schedule.
 //   global     global_register, FPFH + RANSAC (the `--init global` coarse stage), seed 1
-#include <omp.h>
-
 #include <Eigen/Geometry>
 #include <cmath>
 
@@ -52,7 +50,6 @@ void evaluate(const PointCloud& source, const PointCloud& target, const Eigen::I
 }
 
 bench::Report run(const bench::RunnerArgs& a) {
-  omp_set_num_threads(a.threads);
   const bool automatic = a.flags.count("--auto") > 0;
   const bool all_normals = a.flags.count("--all-normals") > 0;
   bench::Report r;
@@ -72,7 +69,7 @@ bench::Report run(const bench::RunnerArgs& a) {
     ns.threads = a.threads;
     std::size_t undefined = 0;
     bench::timed(r, [&] {
-      const align3d::KdTree tree(target.positions);
+      const align3d::KdTree tree(target.positions, a.threads);
       undefined = align3d::estimate_normals(target, tree, ns).undefined;
     });
     double sum_abs_z = 0;

@@ -289,7 +289,7 @@ GlobalResult ppf_match(const PpfModel& model, const PointCloud& scene,
   result.method = GlobalMethod::kPpf;
   result.voxel = voxel;
   const PointCloud down = oriented_downsample(scene, voxel, threads, "scene");
-  const KdTree scene_tree(down.positions);
+  const KdTree scene_tree(down.positions, threads);
   const Eigen::Vector3d scene_centre = centroid(down);
 
   // Voting (Drost, section 3.4): one accumulator over (model reference, α bin) per scene
@@ -393,7 +393,7 @@ GlobalResult ppf_match(const PpfModel& model, const PointCloud& scene,
   // Verification: refine the strongest clusters and keep the pose that lays most of the scene onto
   // the model surface (fit_fraction; overlap_fraction alone barely separates a plane slid over a
   // plane from the true pose).
-  const KdTree model_tree(model.points.positions);
+  const KdTree model_tree(model.points.positions, threads);
   const std::size_t verified = std::min(kVerifiedClusters, clusters.size());
   std::vector<Eigen::Isometry3d> poses(verified);
   std::vector<double> fits(verified);
