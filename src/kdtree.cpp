@@ -127,7 +127,7 @@ struct KdTree::Impl {
 
   // Writes the subtree's root node; returns false for a leaf, else true with its two children.
   bool split(std::vector<Entry>& entries, const Subtree& tree, Subtree& left, Subtree& right) {
-    const auto [begin, end, self, cell] = tree;
+    const auto& [begin, end, self, cell] = tree;
     Node& node = nodes[self];
     node.begin = begin;
     node.end = end;
