@@ -5,7 +5,7 @@ Usage:
   bench/compare.py [SCENE_DIR ...] [--scenes chapter,parts-100k,parts-1m] [--runs 5] [--warmup 1]
                    [--systems align3d,align3d-auto,align3d-all-normals,open3d,pcl] [--tasks icp-point,icp-plane,...]
                    [--init perturbed|identity] [--max-distance D] [--json FILE]
-                   [--load N] [--baseline-build [LABEL=]DIR ...]
+                   [--load N] [--wait-idle PCT] [--baseline-build [LABEL=]DIR ...]
 
 A scene is a directory with model.ply (the target), scan.ply (the source) and ground_truth.txt
 (4x4, model ≈ T·scan). Named scenes (--scenes) are generated with the align3d CLI into --cache:
@@ -34,7 +34,10 @@ bytes/point divides it by source + target points.
 
 A shared machine: --load N keeps N CPUs busy during all runs (warm-ups included) with N busy-loop
 processes, the k-th pinned to the k-th CPU this script may use, so that a run meets the same
-competition every time (bench/README.md, "Shared machine"). --baseline-build [LABEL=]DIR adds
+competition every time (bench/README.md, "Shared machine"). On a host shared with other work,
+--wait-idle PCT waits before each round until the CPUs not kept busy by --load were at least PCT %
+idle over half a second (Linux's /proc/stat), so that other jobs' bursts do not land in some
+rounds only. --baseline-build [LABEL=]DIR adds
 the row `align3d (LABEL)` (default label: baseline): DIR/align3d_run, another build of align3d
 (e.g. main's), interleaved with the others, to compare versions on the same data in the same run;
 it may be given more than once.
@@ -217,7 +220,10 @@ def start_load(n):
     cpus = sorted(os.sched_getaffinity(0))
     procs = []
     for k in range(n):
-        p = subprocess.Popen([sys.executable, "-c", "while True: pass"])
+        # Spins, and stops by itself once this script is gone (even if killed).
+        spin = (f"import os\nwhile os.getppid() == {os.getpid()}:\n"
+                "    for _ in range(1000000): pass")
+        p = subprocess.Popen([sys.executable, "-c", spin])
         os.sched_setaffinity(p.pid, {cpus[k % len(cpus)]})
         procs.append(p)
 
@@ -230,6 +236,28 @@ def start_load(n):
         print(f"load: {n} busy loop(s) on CPU {', '.join(str(cpus[k % len(cpus)]) for k in range(n))}",
               file=sys.stderr)
     time.sleep(0.2 if n else 0)  # let them start spinning
+
+
+def cpu_times():
+    with open("/proc/stat") as f:
+        v = [int(x) for x in f.readline().split()[1:9]]
+    return v[3] + v[4], sum(v)  # idle + iowait, total
+
+
+def wait_idle(pct, load, timeout=600):
+    """Waits until the CPUs not kept busy by `load` were `pct` % idle over 0.5 s; seconds waited."""
+    if not pct or not os.path.exists("/proc/stat"):
+        return 0.0
+    cpus = os.cpu_count()
+    free = max(1, cpus - load) / cpus
+    start = time.monotonic()
+    while time.monotonic() - start < timeout:
+        i0, t0 = cpu_times()
+        time.sleep(0.5)
+        i1, t1 = cpu_times()
+        if t1 > t0 and (i1 - i0) / (t1 - t0) / free >= pct / 100:
+            break
+    return time.monotonic() - start - 0.5
 
 
 def run_once(exe, extra, task, scene, init_path, s, timeout):
@@ -287,6 +315,8 @@ def main():
     ap.add_argument("--json", help="write every run here")
     ap.add_argument("--load", type=int, default=0,
                     help="keep N CPUs busy during the runs (busy loops, one pinned per CPU)")
+    ap.add_argument("--wait-idle", type=float, default=0, metavar="PCT",
+                    help="before each round, wait until the free CPUs were PCT %% idle")
     ap.add_argument("--baseline-build", action="append", default=[], metavar="[LABEL=]DIR",
                     help="another build's align3d_run: adds the row align3d (LABEL); repeatable")
     args = ap.parse_args()
@@ -359,7 +389,9 @@ def main():
 
         for task in tasks:
             per_system = {key: [] for key in runners}
+            waited = 0.0
             for round_ in range(args.warmup + args.runs):
+                waited += wait_idle(args.wait_idle, args.load)
                 for key, (name, exe, extra) in runners.items():
                     if task not in VARIANT_TASKS.get(key, TASKS):
                         continue
@@ -374,6 +406,8 @@ def main():
                         per_system[key].append(r)
                     print(f"  {label} {task} round {round_} {name}: "
                           f"{r.get('time_ms', float('nan')):.1f} ms", file=sys.stderr)
+            if waited > 1:
+                notes.append(f"{label} {task}: waited {waited:.0f} s in all for idle CPUs")
             reference = None
             for key in runners:
                 runs = per_system[key]
