@@ -5,7 +5,10 @@
 // ran 10x slower than on an idle one. libgomp reads OMP_WAIT_POLICY when it loads, before main,
 // so a library cannot turn the spinning off for its users. The pool below spins for 50 µs at
 // most, then sleeps; it keeps the chunking of the OpenMP loops it replaces, so results are the
-// same to the bit. oneTBB (Debian's libtbb-dev) was measured as the alternative (same page).
+// same to the bit. oneTBB (Debian's libtbb-dev; bench/parallel_tbb.cpp) measured about as well:
+// the same under load, slower on the chapter scene's short loops, faster on long ones; but
+// Debian's build is not instrumented for ThreadSanitizer, which then reports races on race-free
+// code. This pool is plain std::thread/atomic/mutex, which TSan sees.
 //
 // How one call runs (Pool::run): the caller takes the pool (a flag; if it is taken, the call runs
 // serially: parallel.hpp), publishes the job, wakes `helpers` workers and works on the job
