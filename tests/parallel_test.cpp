@@ -18,27 +18,10 @@
 #include <vector>
 
 #include "detail/random.hpp"
+#include "rendezvous.hpp"
 
 namespace align3d {
 namespace {
-
-// Waits until `parties` threads have arrived; false if one has not come within 10 s (the pool did
-// not run the tasks on distinct threads).
-class Rendezvous {
- public:
-  explicit Rendezvous(int parties) : parties_(parties) {}
-  bool arrive_and_wait() {
-    arrived_.fetch_add(1);
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
-    while (arrived_.load() < parties_)
-      if (std::chrono::steady_clock::now() > deadline) return false;
-    return true;
-  }
-
- private:
-  std::atomic<int> arrived_{0};
-  const int parties_;
-};
 
 // Values of wildly different magnitudes, so that summing them in another order gives other bits.
 std::vector<double> hostile_values(std::size_t n) {

@@ -14,32 +14,13 @@
 //   TSan reports the race every time; ctest passes only on that report
 //   (PASS_REGULAR_EXPRESSION in tests/CMakeLists.txt, which needs a symbolised file name).
 #include <atomic>
-#include <chrono>
 #include <cstdio>
 #include <cstring>
 #include <thread>
 #include <vector>
 
 #include "detail/parallel.hpp"
-
-namespace {
-
-// Both tasks of a region arrive before either goes on; false after 10 s without the other.
-class Rendezvous {
- public:
-  bool arrive_and_wait() {
-    arrived_.fetch_add(1);
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
-    while (arrived_.load() < 2)
-      if (std::chrono::steady_clock::now() > deadline) return false;
-    return true;
-  }
-
- private:
-  std::atomic<int> arrived_{0};
-};
-
-}  // namespace
+#include "rendezvous.hpp"
 
 int main(int argc, char** argv) {
   const bool race = argc > 1 && std::strcmp(argv[1], "race") == 0;
@@ -49,7 +30,7 @@ int main(int argc, char** argv) {
   long shared = 0;  // written by both threads in "race" mode
   std::atomic<bool> alone{false};
 
-  Rendezvous first;
+  align3d::Rendezvous first(2);
   align3d::parallel_tasks(2, 2, [&](std::size_t half) {
     if (!first.arrive_and_wait()) alone = true;
     writer[half] = std::this_thread::get_id();
@@ -57,7 +38,7 @@ int main(int argc, char** argv) {
     if (race) shared = static_cast<long>(half) + 1;
   });
 
-  Rendezvous second;
+  align3d::Rendezvous second(2);
   std::atomic<long> read_elsewhere{0};  // items read by a thread that did not write them
   double sums[2] = {0, 0};
   align3d::parallel_tasks(2, 2, [&](std::size_t task) {
