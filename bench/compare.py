@@ -5,6 +5,7 @@ Usage:
   bench/compare.py [SCENE_DIR ...] [--scenes chapter,parts-100k,parts-1m] [--runs 5] [--warmup 1]
                    [--systems align3d,align3d-auto,align3d-all-normals,open3d,pcl] [--tasks icp-point,icp-plane,...]
                    [--init perturbed|identity] [--max-distance D] [--json FILE]
+                   [--load N] [--wait-idle PCT] [--baseline-build [LABEL=]DIR ...]
 
 A scene is a directory with model.ply (the target), scan.ply (the source) and ground_truth.txt
 (4x4, model ≈ T·scan). Named scenes (--scenes) are generated with the align3d CLI into --cache:
@@ -30,8 +31,19 @@ process's threads alongside, a check when the machine is busy). Runs are interle
 ...) after --warmup warm-up rounds; the table gives the median time of --runs runs. Peak memory is
 the whole process's maximum resident set (getrusage), so it includes each library's own footprint;
 bytes/point divides it by source + target points.
+
+A shared machine: --load N keeps N CPUs busy during all runs (warm-ups included) with N busy-loop
+processes, the k-th pinned to the k-th CPU this script may use, so that a run meets the same
+competition every time (bench/README.md, "Shared machine"). On a host shared with other work,
+--wait-idle PCT waits before each round until the CPUs not kept busy by --load were at least PCT %
+idle over half a second (Linux's /proc/stat), so that other jobs' bursts do not land in some
+rounds only. --baseline-build [LABEL=]DIR adds
+the row `align3d (LABEL)` (default label: baseline): DIR/align3d_run, another build of align3d
+(e.g. main's), interleaved with the others, to compare versions on the same data in the same run;
+it may be given more than once.
 """
 import argparse
+import atexit
 import json
 import math
 import os
@@ -203,6 +215,51 @@ SYSTEMS = {  # key: (display name, runner path option, extra arguments)
 VARIANT_TASKS = {"align3d-auto": ("icp-point", "icp-plane"), "align3d-all-normals": ("icp-plane",)}
 
 
+def start_load(n):
+    """N busy-loop processes, the k-th pinned to the k-th allowed CPU; stopped at exit."""
+    cpus = sorted(os.sched_getaffinity(0))
+    procs = []
+    for k in range(n):
+        # Spins, and stops by itself once this script is gone (even if killed).
+        spin = (f"import os\nwhile os.getppid() == {os.getpid()}:\n"
+                "    for _ in range(1000000): pass")
+        p = subprocess.Popen([sys.executable, "-c", spin])
+        os.sched_setaffinity(p.pid, {cpus[k % len(cpus)]})
+        procs.append(p)
+
+    def stop():
+        for p in procs:
+            p.kill()
+            p.wait()
+    atexit.register(stop)
+    if n:
+        print(f"load: {n} busy loop(s) on CPU {', '.join(str(cpus[k % len(cpus)]) for k in range(n))}",
+              file=sys.stderr)
+    time.sleep(0.2 if n else 0)  # let them start spinning
+
+
+def cpu_times():
+    with open("/proc/stat") as f:
+        v = [int(x) for x in f.readline().split()[1:9]]
+    return v[3] + v[4], sum(v)  # idle + iowait, total
+
+
+def wait_idle(pct, load, timeout=600):
+    """Waits until the CPUs not kept busy by `load` were `pct` % idle over 0.5 s; seconds waited."""
+    if not pct or not os.path.exists("/proc/stat"):
+        return 0.0
+    cpus = os.cpu_count()
+    free = max(1, cpus - load) / cpus
+    start = time.monotonic()
+    while time.monotonic() - start < timeout:
+        i0, t0 = cpu_times()
+        time.sleep(0.5)
+        i1, t1 = cpu_times()
+        if t1 > t0 and (i1 - i0) / (t1 - t0) / free >= pct / 100:
+            break
+    return time.monotonic() - start - 0.5
+
+
 def run_once(exe, extra, task, scene, init_path, s, timeout):
     cmd = [exe, task, os.path.join(scene, "scan.ply"), os.path.join(scene, "model.ply"),
            "--init", init_path, "--max-distance", repr(s["max_distance"]),
@@ -256,11 +313,26 @@ def main():
     ap.add_argument("--voxel", type=float, help="coarse-stage voxel; default: target diagonal / 50")
     ap.add_argument("--timeout", type=float, default=900, help="seconds per run")
     ap.add_argument("--json", help="write every run here")
+    ap.add_argument("--load", type=int, default=0,
+                    help="keep N CPUs busy during the runs (busy loops, one pinned per CPU)")
+    ap.add_argument("--wait-idle", type=float, default=0, metavar="PCT",
+                    help="before each round, wait until the free CPUs were PCT %% idle")
+    ap.add_argument("--baseline-build", action="append", default=[], metavar="[LABEL=]DIR",
+                    help="another build's align3d_run: adds the row align3d (LABEL); repeatable")
     args = ap.parse_args()
-    if args.runs < 1 or args.warmup < 0:
-        sys.exit("--runs >= 1 and --warmup >= 0")
+    if args.runs < 1 or args.warmup < 0 or args.load < 0:
+        sys.exit("--runs >= 1, --warmup >= 0 and --load >= 0")
 
     systems = [s for s in args.systems.split(",") if s]
+    # Other builds of align3d, each a system of its own, placed right after align3d.
+    builds = {}
+    for k, spec in enumerate(args.baseline_build):
+        label, _, folder = spec.rpartition("=")
+        key = f"align3d-baseline-{k}"
+        SYSTEMS[key] = (f"align3d ({label or 'baseline'})", "align3d_run", [])
+        builds[key] = folder
+        at = systems.index("align3d") + 1 + k if "align3d" in systems else k
+        systems.insert(at, key)
     tasks = [t for t in args.tasks.split(",") if t]
     for s in systems:
         if s not in SYSTEMS:
@@ -272,7 +344,8 @@ def main():
     runners = {}
     for key in systems:
         name, exe_name, extra = SYSTEMS[key]
-        folder = args.build if exe_name == "align3d_run" else args.peers_build
+        folder = builds.get(key) or (args.build if exe_name == "align3d_run" else
+                                     args.peers_build)
         exe = os.path.join(folder, exe_name)
         if os.access(exe, os.X_OK):
             runners[key] = (name, exe, extra)
@@ -283,6 +356,7 @@ def main():
     if not scene_names:
         scene_names = ["chapter"]
     os.makedirs(args.cache, exist_ok=True)
+    start_load(args.load)
     results = []
     rows = []
     for scene_name in scene_names:
@@ -315,13 +389,16 @@ def main():
 
         for task in tasks:
             per_system = {key: [] for key in runners}
+            waited = 0.0
             for round_ in range(args.warmup + args.runs):
+                waited += wait_idle(args.wait_idle, args.load)
                 for key, (name, exe, extra) in runners.items():
                     if task not in VARIANT_TASKS.get(key, TASKS):
                         continue
                     r = run_once(exe, extra, task, scene, init_path, settings, args.timeout)
                     r.update({"scene": label, "system_key": key, "round": round_,
-                              "warmup": round_ < args.warmup, "settings": settings})
+                              "warmup": round_ < args.warmup, "settings": settings,
+                              "load": args.load})
                     results.append(r)
                     if "error" in r:
                         print(f"  {name} {task}: FAILED: {r['error']}", file=sys.stderr)
@@ -329,15 +406,18 @@ def main():
                         per_system[key].append(r)
                     print(f"  {label} {task} round {round_} {name}: "
                           f"{r.get('time_ms', float('nan')):.1f} ms", file=sys.stderr)
+            if waited > 1:
+                notes.append(f"{label} {task}: waited {waited:.0f} s in all for idle CPUs")
             reference = None
             for key in runners:
                 runs = per_system[key]
                 name = runners[key][0]
                 if not runs:
                     if task in VARIANT_TASKS.get(key, TASKS):
-                        rows.append([label, "", name, task, "failed"] + [""] * 9)
+                        rows.append([label, "", name, task, "failed"] + [""] * 10)
                     continue
-                med = statistics.median(r["time_ms"] for r in runs)
+                times = [r["time_ms"] for r in runs]
+                med = statistics.median(times)
                 cpu = statistics.median(r.get("cpu_ms", math.nan) for r in runs)
                 if key == "align3d":
                     reference = med
@@ -356,15 +436,18 @@ def main():
                         notes.append(f"{label} {task}, {name}: stop {', '.join(stops)}")
                 rows.append([label, f"{first['points_source']} / {first['points_target']}", name,
                              task, fmt(first["iterations"]), fmt(first["rms"], 4), fmt(rot, 3),
-                             fmt(trans, 3), fmt(med, 3), fmt(cpu, 3), fmt(rss_kb / 1024, 3),
+                             fmt(trans, 3), fmt(med, 3), f"{fmt(min(times), 3)}–{fmt(max(times), 3)}",
+                             fmt(cpu, 3), fmt(rss_kb / 1024, 3),
                              fmt(rss_kb * 1024 / points, 3),
                              fmt(med / reference, 3) if reference else "—", len(runs)])
 
+    load = f", {args.load} CPU(s) kept busy" if args.load else ""
     print(f"\n{os.cpu_count()} cores, {args.threads} threads, init {args.init}, "
-          f"{args.warmup} warm-up + {args.runs} interleaved runs (median time)\n")
+          f"{args.warmup} warm-up + {args.runs} interleaved runs (median time){load}\n")
     print("| scene | points (source / target) | system | task | iterations | RMS | rot err (deg) "
-          "| trans err | time (ms) | CPU (ms) | peak RSS (MB) | bytes/point | time ÷ align3d | runs |")
-    print("|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+          "| trans err | time (ms) | min–max (ms) | CPU (ms) | peak RSS (MB) | bytes/point "
+          "| time ÷ align3d | runs |")
+    print("|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
     for row in rows:
         print("| " + " | ".join(str(c) for c in row) + " |")
     if notes:
@@ -373,7 +456,7 @@ def main():
             print(f"- {n}")
     if args.json:
         with open(args.json, "w") as f:
-            json.dump({"runs": results, "notes": notes}, f, indent=1)
+            json.dump({"runs": results, "notes": notes, "load": args.load}, f, indent=1)
 
 
 if __name__ == "__main__":

@@ -11,8 +11,6 @@
 //              with its defaults (init auto: the `auto` schedule, the support measurement, and the
 //              global stage when the answer from the initial pose is weak).
 //   global     global_register, FPFH + RANSAC (the `--init global` coarse stage), seed 1
-#include <omp.h>
-
 #include <Eigen/Geometry>
 #include <cmath>
 
@@ -56,7 +54,6 @@ void evaluate(const PointCloud& source, const PointCloud& target, const Eigen::I
 }
 
 bench::Report run(const bench::RunnerArgs& a) {
-  omp_set_num_threads(a.threads);
   const bool automatic = a.flags.count("--auto") > 0;
   const bool all_normals = a.flags.count("--all-normals") > 0;
   bench::Report r;
@@ -76,7 +73,7 @@ bench::Report run(const bench::RunnerArgs& a) {
     ns.threads = a.threads;
     std::size_t undefined = 0;
     bench::timed(r, [&] {
-      const align3d::KdTree tree(target.positions);
+      const align3d::KdTree tree(target.positions, a.threads);
       undefined = align3d::estimate_normals(target, tree, ns).undefined;
     });
     double sum_abs_z = 0;

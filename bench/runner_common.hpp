@@ -135,8 +135,8 @@ inline long peak_rss_kb() {
 struct Report {
   std::string system, task;
   double time_ms = 0;   // wall clock of the work (set by timed())
-  double cpu_ms = 0;    // CPU time of the whole process meanwhile, all threads (OpenMP spin-waits
-                        // included), a check on wall times taken on a busy machine
+  double cpu_ms = 0;    // CPU time of the whole process meanwhile, all threads (spin-waits of
+                        // idle threads included), a check on wall times taken on a busy machine
   int iterations = -1;  // < 0: not applicable / not reported (null)
   // Measured the same way by every runner, outside the timed region, at the final pose: each
   // source point paired with its nearest target point when closer than --max-distance; rms =

@@ -18,7 +18,7 @@ namespace align3d {
 // bench/README.md has the numbers. What it does differently:
 // - splits are at the median of the widest side of the node's bounding box (nth_element over
 //   contiguous {point, index} entries), so the depth is log2(n / 16) whatever the data and the
-//   subtrees are built as parallel tasks;
+//   subtrees are built in parallel (build_all);
 // - the points are stored once, in leaf order, so a leaf is one contiguous run of up to 16
 //   points, scanned distances first and inserts after (the scan has no branches);
 // - nodes are 56 bytes in one array in depth-first order (the left child follows its parent);
@@ -68,13 +68,7 @@ struct KdTree::Impl {
       box.extend(input[i]);
     }
     nodes.resize(n > 0 ? node_count(n) : 0);
-    if (n > 0) {
-      // Subtrees are independent (each writes its own nodes and entries), so large ones are
-      // built as parallel tasks; the tree does not depend on which thread builds what.
-#pragma omp parallel if (n > 2 * kTaskSize) num_threads(thread_count(threads))
-#pragma omp single
-      build(entries, 0, n, 0, box);
-    }
+    if (n > 0) build_all(entries, {0, n, 0, box}, n > 2 * kTaskSize ? threads : 1);
     original.resize(n);
     points.resize(n);
     for (std::uint32_t k = 0; k < n; ++k) {
@@ -83,8 +77,8 @@ struct KdTree::Impl {
     }
   }
 
-  // Subtrees larger than this are built as tasks of their own: large enough that a task's work
-  // (~0.2 ms) dwarfs its scheduling, small enough that a 5 000-point cloud uses both cores.
+  // Subtrees are built in parallel down to this size: a subtree's work (~0.2 ms) dwarfs its
+  // hand-off, and a 5 000-point cloud still uses both cores.
   static constexpr std::uint32_t kTaskSize = 1024;
 
   struct Entry {
@@ -92,14 +86,48 @@ struct KdTree::Impl {
     std::uint32_t index;
   };
 
+  // A subtree to build: entries[begin, end), whose bounding box is `cell`, into
+  // nodes[self, self + node_count(end - begin)).
+  struct Subtree {
+    std::uint32_t begin = 0, end = 0, self = 0;
+    Eigen::AlignedBox3d cell;
+  };
+
   static std::uint32_t node_count(std::uint32_t n) {
     return n <= kLeafSize ? 1 : 1 + node_count(n / 2) + node_count(n - n / 2);
   }
 
-  // Builds the subtree over entries[begin, end), whose bounding box is `cell`, into
-  // nodes[self, self + node_count(end - begin)).
-  void build(std::vector<Entry>& entries, std::uint32_t begin, std::uint32_t end,
-             std::uint32_t self, const Eigen::AlignedBox3d& cell) {
+  // Subtrees are independent (each writes its own nodes and entries), and every node is placed
+  // where node_count puts it, so the tree does not depend on which thread builds what. The top
+  // levels are split one level at a time, the nodes of a level in parallel, until there are
+  // enough subtrees to keep the threads busy (4 per thread: their sizes differ by at most one
+  // point, their cost a little) or they are down to kTaskSize; then the subtrees are built in
+  // parallel. The critical path is the one of the recursive split: n + n/2 + n/4 + ...
+  void build_all(std::vector<Entry>& entries, const Subtree& root, int threads) {
+    const auto enough = 4 * static_cast<std::size_t>(thread_count(threads));
+    std::vector<Subtree> level{root};
+    // The sizes within a level differ by at most one point, so while the last is above
+    // kTaskSize every node of the level splits (none is a leaf).
+    while (level.size() < enough && level.back().end - level.back().begin > kTaskSize) {
+      std::vector<Subtree> next(2 * level.size());
+      parallel_tasks(level.size(), threads, [&](std::size_t k) {
+        split(entries, level[k], next[2 * k], next[2 * k + 1]);
+      });
+      level = std::move(next);
+    }
+    parallel_tasks(level.size(), threads, [&](std::size_t k) { build(entries, level[k]); });
+  }
+
+  void build(std::vector<Entry>& entries, const Subtree& tree) {
+    Subtree left, right;
+    if (!split(entries, tree, left, right)) return;
+    build(entries, left);
+    build(entries, right);
+  }
+
+  // Writes the subtree's root node; returns false for a leaf, else true with its two children.
+  bool split(std::vector<Entry>& entries, const Subtree& tree, Subtree& left, Subtree& right) {
+    const auto& [begin, end, self, cell] = tree;
     Node& node = nodes[self];
     node.begin = begin;
     node.end = end;
@@ -107,7 +135,7 @@ struct KdTree::Impl {
       node.min[d] = round_down(cell.min()[d]);
       node.max[d] = round_up(cell.max()[d]);
     }
-    if (end - begin <= kLeafSize) return;
+    if (end - begin <= kLeafSize) return false;
     int dim = 0;
     cell.sizes().maxCoeff(&dim);
     const std::uint32_t mid = begin + (end - begin) / 2;
@@ -116,16 +144,14 @@ struct KdTree::Impl {
                        return a.p[dim] < b.p[dim] || (a.p[dim] == b.p[dim] && a.index < b.index);
                      });
     node.dim = static_cast<std::uint32_t>(dim);
-    std::array<Eigen::AlignedBox3d, 2> child;
-    for (std::uint32_t k = begin; k < mid; ++k) child[0].extend(entries[k].p);
-    for (std::uint32_t k = mid; k < end; ++k) child[1].extend(entries[k].p);
-    node.low = child[0].max()[dim];
-    node.high = child[1].min()[dim];
-    node.right = self + 1 + node_count(mid - begin);
-#pragma omp task if (mid - begin > kTaskSize) default(shared)
-    build(entries, begin, mid, self + 1, child[0]);
-    build(entries, mid, end, node.right, child[1]);
-#pragma omp taskwait
+    left = {begin, mid, self + 1, {}};
+    right = {mid, end, self + 1 + node_count(mid - begin), {}};
+    for (std::uint32_t k = begin; k < mid; ++k) left.cell.extend(entries[k].p);
+    for (std::uint32_t k = mid; k < end; ++k) right.cell.extend(entries[k].p);
+    node.low = left.cell.max()[dim];
+    node.high = right.cell.min()[dim];
+    node.right = right.self;
+    return true;
   }
 
   static float round_down(double x) {

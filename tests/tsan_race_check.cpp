@@ -1,51 +1,60 @@
-// ThreadSanitizer self-check of the OpenMP configuration, built only with ALIGN3D_SANITIZE_THREAD.
-// It checks soundness both ways on align3d's own parallel helper (parallel.hpp):
-// - "clean": one parallel_for writes, the following parallel_reduce reads what the other thread
-//   wrote. Race-free only through the runtime's join barrier, so it is silent only if TSan sees
-//   OpenMP's synchronisation (Archer loaded); without Archer TSan reports a race here.
-// - "race": parallel_for increments a shared counter unsynchronised; ctest passes only if TSan
-//   reports it (PASS_REGULAR_EXPRESSION in tests/CMakeLists.txt).
-// Both need a team of more than one thread (2 requested) in which both threads run items, and
-// fail otherwise. parallel_for hands out runs of items dynamically, so each item first waits
-// ~20 µs: without that, the first thread could take every run before the second one starts, and
-// the "race" mode would have no second writer to report.
-#include <omp.h>
-
+// ThreadSanitizer self-check, built only with ALIGN3D_SANITIZE_THREAD: it proves that the TSan
+// stage (scripts/tsan.sh) both sees the pool's synchronisation and reports a race, on align3d's
+// own parallel helper (src/detail/parallel.hpp). Every run is the same, whatever the scheduling:
+// - Each region is parallel_tasks(2, 2) whose two tasks first meet at a rendezvous, so two
+//   distinct threads of the pool (the caller and a helper) are certain to run one task each, at
+//   the same time; a thread cannot take both tasks, it would wait for itself. If the pool ever ran
+//   them on one thread, the rendezvous times out and the check fails (exit 2), never hangs.
+// - "clean": region 1 writes one half of an array per task; region 2 has each task read every
+//   half that another thread wrote (at least one, as the two writers were distinct). Those reads
+//   are ordered after the writes only by the pool's join and hand-off, so TSan stays silent only
+//   if it sees them (it sees std::atomic, std::mutex and std::thread natively).
+// - "race": after the rendezvous, both tasks of region 1 also write one shared variable without
+//   synchronisation. Both writes happen (the region joins both tasks) and nothing orders them, so
+//   TSan reports the race every time; ctest passes only on that report
+//   (PASS_REGULAR_EXPRESSION in tests/CMakeLists.txt, which needs a symbolised file name).
+#include <atomic>
 #include <cstdio>
 #include <cstring>
+#include <thread>
 #include <vector>
 
 #include "detail/parallel.hpp"
+#include "rendezvous.hpp"
 
 int main(int argc, char** argv) {
   const bool race = argc > 1 && std::strcmp(argv[1], "race") == 0;
-  constexpr std::size_t kN = 4096;
-  std::vector<double> values(kN, 1.0);
-  std::vector<int> team(kN, 0), worker(kN, -1);
-  long shared_counter = 0;  // written by every thread in "race" mode
-  align3d::parallel_for(kN, 2, [&](std::size_t i) {
-    for (const double start = omp_get_wtime(); omp_get_wtime() - start < 20e-6;) {
-    }
-    values[i] = 2.0 * static_cast<double>(i);
-    team[i] = omp_get_num_threads();
-    worker[i] = omp_get_thread_num();
-    if (race) ++shared_counter;
+  constexpr std::size_t kHalf = 4096;
+  std::vector<double> values(2 * kHalf, 0.0);
+  std::thread::id writer[2];
+  long shared = 0;  // written by both threads in "race" mode
+  std::atomic<bool> alone{false};
+
+  align3d::Rendezvous first(2);
+  align3d::parallel_tasks(2, 2, [&](std::size_t half) {
+    if (!first.arrive_and_wait()) alone = true;
+    writer[half] = std::this_thread::get_id();
+    for (std::size_t i = half * kHalf; i < (half + 1) * kHalf; ++i) values[i] = 1.0;
+    if (race) shared = static_cast<long>(half) + 1;
   });
-  // Chunk c of the reduction reads the mirrored chunk, written by the other thread above.
-  const double sum = align3d::parallel_reduce(
-      kN, 2, 0.0, [&](double& acc, std::size_t i) { acc += values[kN - 1 - i]; },
-      [](double& a, double b) { a += b; });
-  if (team[0] < 2 || team[kN - 1] < 2) {
-    std::fprintf(stderr, "parallel_for ran with %d thread(s); the check needs 2\n", team[0]);
-    return 1;
+
+  align3d::Rendezvous second(2);
+  std::atomic<long> read_elsewhere{0};  // items read by a thread that did not write them
+  double sums[2] = {0, 0};
+  align3d::parallel_tasks(2, 2, [&](std::size_t task) {
+    if (!second.arrive_and_wait()) alone = true;
+    for (int half = 0; half < 2; ++half) {
+      if (writer[half] == std::this_thread::get_id()) continue;
+      for (std::size_t i = half * kHalf; i < (half + 1) * kHalf; ++i) sums[task] += values[i];
+      read_elsewhere += kHalf;
+    }
+  });
+
+  if (alone || writer[0] == writer[1]) {
+    std::fprintf(stderr, "the pool did not run the two tasks on two threads at once\n");
+    return 2;
   }
-  bool ran[2] = {false, false};
-  for (int w : worker)
-    if (w == 0 || w == 1) ran[w] = true;
-  if (!ran[0] || !ran[1]) {
-    std::fprintf(stderr, "only one thread of the team ran items; the check needs both\n");
-    return 1;
-  }
-  std::printf("team %d, sum %.0f, counter %ld\n", team[0], sum, shared_counter);
-  return sum == static_cast<double>(kN) * static_cast<double>(kN - 1) ? 0 : 1;
+  std::printf("read %ld items written by the other thread, shared %ld\n", read_elsewhere.load(),
+              shared);
+  return sums[0] + sums[1] == static_cast<double>(read_elsewhere.load()) ? 0 : 1;
 }

@@ -26,8 +26,8 @@ struct Neighbor {
 
 class KdTree {
  public:
-  // Builds the tree; `threads` as everywhere (0: OpenMP's default); the tree is the same for any
-  // thread count.
+  // Builds the tree; `threads` as everywhere (0: all the CPUs the process may run on); the tree
+  // is the same for any thread count.
   explicit KdTree(const std::vector<Eigen::Vector3d>& points, int threads = 0);
   ~KdTree();
   KdTree(const KdTree&) = delete;

@@ -244,7 +244,7 @@ GlobalResult ppf_match(const PpfModel& model, const PointCloud& scene,
   result.method = GlobalMethod::kPpf;
   result.voxel = voxel;
   const PointCloud down = oriented_downsample(scene, voxel, threads, "scene");
-  const KdTree scene_tree(down.positions);
+  const KdTree scene_tree(down.positions, threads);
   const Eigen::Vector3d scene_centre = centroid(down);
 
   // Voting (Drost, section 3.4): one accumulator over (model reference, α bin) per scene
@@ -349,7 +349,7 @@ GlobalResult ppf_match(const PpfModel& model, const PointCloud& scene,
   // the scene's surface (surface_fit, global.hpp: nearness alone barely separates a plane slid over
   // a plane from the true pose; counted on the model's side, because a pose that lays a face of the
   // model on a wide floor lays many scene points onto the model but few of the model's).
-  const KdTree model_tree(model.points.positions);
+  const KdTree model_tree(model.points.positions, threads);
   const std::size_t verified = std::min(kVerifiedClusters, clusters.size());
   std::vector<Eigen::Isometry3d> poses(verified);
   std::vector<double> fits(verified);
