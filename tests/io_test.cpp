@@ -3,6 +3,9 @@
 // with known coordinates; and a catalogue of malformed files, each of which must raise an IoError
 // naming the file and the problem.
 #include <gtest/gtest.h>
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -24,6 +27,7 @@
 #include <vector>
 
 #include "align3d/error.hpp"
+#include "align3d/io/atomic_file.hpp"
 #include "align3d/io/matrix_io.hpp"
 #include "align3d/io/point_cloud_io.hpp"
 #include "test_util.hpp"
@@ -1110,3 +1114,28 @@ TEST(FuzzSeedCorpus, EverySeedReads) {
 
 }  // namespace
 }  // namespace align3d::io
+
+namespace align3d {
+namespace {
+
+// A destination that is a FIFO (like /dev/null or /dev/stdout, no regular file) is written in
+// place: renaming the temporary over it would replace it (as root, /dev/null itself).
+TEST(AtomicFile, WritesDevicesAndFifosInPlace) {
+  test::TempDir d("fifo");
+  const std::filesystem::path fifo = d / "pipe";
+  ASSERT_EQ(mkfifo(fifo.c_str(), 0600), 0);
+  // A reader that does not block: the write below finds it, and the text waits in the pipe.
+  const int reader = open(fifo.c_str(), O_RDONLY | O_NONBLOCK);
+  ASSERT_GE(reader, 0);
+  io::write_text_atomically(fifo, "through the pipe\n");
+  char buffer[64] = {};
+  const ssize_t got = read(reader, buffer, sizeof buffer);
+  close(reader);
+  const std::string received(buffer, got > 0 ? static_cast<std::size_t>(got) : 0);
+  EXPECT_EQ(received, "through the pipe\n");
+  EXPECT_TRUE(std::filesystem::is_fifo(fifo));
+  EXPECT_EQ(std::distance(std::filesystem::directory_iterator(d.path()), {}), 1);  // no leftovers
+}
+
+}  // namespace
+}  // namespace align3d

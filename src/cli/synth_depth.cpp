@@ -1,8 +1,6 @@
 #include "synth_depth.hpp"
 
 #include <Eigen/Geometry>
-#include <bit>
-#include <cstring>
 #include <iostream>
 #include <string>
 
@@ -16,24 +14,15 @@
 namespace align3d::cli {
 namespace {
 
-// An organized binary PCD (x y z float32, WIDTH × HEIGHT, NaN kept, VIEWPOINT the identity: the
-// points are in the sensor's frame). Local until io::write_pcd takes a layout and a viewpoint;
-// then this function goes and its callers pass the layout to write_pcd.
+// An organized binary PCD (WIDTH × HEIGHT, NaN kept, VIEWPOINT the identity: the points are in the
+// sensor's frame).
 void write_organized_pcd(const std::filesystem::path& path, const synth::OrganizedCloud& cloud) {
-  const std::size_t n = cloud.positions.size();
-  std::string data =
-      "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\n"
-      "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH " +
-      std::to_string(cloud.width) + "\nHEIGHT " + std::to_string(cloud.height) +
-      "\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " + std::to_string(n) + "\nDATA binary\n";
-  data.reserve(data.size() + n * 12);
-  for (const Eigen::Vector3d& p : cloud.positions)
-    for (int k = 0; k < 3; ++k) {
-      auto bits = std::bit_cast<std::uint32_t>(static_cast<float>(p(k)));
-      for (int byte = 0; byte < 4; ++byte, bits >>= 8)  // little-endian, as PCL writes
-        data += static_cast<char>(bits & 0xff);
-    }
-  io::write_text_atomically(path, data);
+  PointCloud points;
+  points.positions = cloud.positions;
+  io::PcdLayout layout;
+  layout.width = static_cast<std::size_t>(cloud.width);
+  layout.height = static_cast<std::size_t>(cloud.height);
+  io::write_pcd(path, points, io::PcdEncoding::kBinary, layout);
 }
 
 // An 8-bit binary PGM of per-pixel labels: 0 where label < 0, label + 1 otherwise (up to 254).

@@ -20,8 +20,16 @@ std::filesystem::path temporary_name(const std::filesystem::path& path) {
 
 void write_via_temporary(const std::filesystem::path& path,
                          const std::function<void(const std::filesystem::path& tmp)>& write) {
-  const auto tmp = temporary_name(path);
   std::error_code ec;
+  // A device, a FIFO or a socket (/dev/null, /dev/stdout, a pipe) is written in place: renaming a
+  // file over it would replace it (as root, /dev/null itself).
+  const auto status = std::filesystem::status(path, ec);
+  if (!ec && std::filesystem::exists(status) && !std::filesystem::is_regular_file(status) &&
+      !std::filesystem::is_directory(status)) {
+    write(path);
+    return;
+  }
+  const auto tmp = temporary_name(path);
   try {
     write(tmp);
   } catch (...) {

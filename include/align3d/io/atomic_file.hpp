@@ -1,7 +1,9 @@
 // Atomic file output: everything align3d writes goes through here. The content is written to a
 // temporary file next to the destination, flushed, and renamed over it; on any failure the
 // temporary is removed and an OutputError naming the destination is thrown. So a destination holds
-// either the complete new content or whatever it held before.
+// either the complete new content or whatever it held before. A destination that exists and is
+// neither a regular file nor a directory (a device such as /dev/null or /dev/stdout, a FIFO) is
+// written in place instead: it has no content to keep, and a rename would replace it.
 #pragma once
 
 #include <filesystem>
