@@ -67,17 +67,26 @@ std::vector<Warning> weaknesses(const RefineResult& r, const Support& s) {
   return w;
 }
 
-// B replaces A when A failed and B did not, when B lays clearly more of the object on the surface,
-// or as much with a clearly smaller RMS (align.hpp).
+// B replaces A when A failed and B did not, or when B lays clearly more of the object on the
+// other cloud's surface (align.hpp). The RMS does not decide: a partial view slid face on face
+// keeps fewer pairs, on flat faces, and can show a smaller RMS than the truth.
 bool clearly_better(const AlignCandidate& b, const AlignCandidate& a, bool a_failed) {
-  if (a_failed) return true;
-  if (b.support.overlap > a.support.overlap + kClearlyBetter) return true;
-  return b.support.overlap >= a.support.overlap - kClearlyBetter && b.rms < a.rms / 1.5;
+  return a_failed || b.support.overlap > a.support.overlap + kClearlyBetter;
 }
 
 // Is ICP run the other way round (align.hpp)?
 bool reverse_icp(const PointCloud& source, const PointCloud& target) {
   return robust_extent(target) > kReverseExtentRatio * robust_extent(source);
+}
+
+// Two answers are distinct poses when they differ by more than the global stage's distinctness
+// (coarse/global.hpp): distinct_rotation_deg, or 2 voxels at the source's centroid; as voxel, the
+// support's reach stands in (a few spacings).
+bool distinct(const AlignCandidate& a, const AlignCandidate& b, const PointCloud& source,
+              double distinct_rotation_deg) {
+  const Eigen::Vector3d c = centroid(source);
+  return pose_error(a.transformation, b.transformation).rotation_deg > distinct_rotation_deg ||
+         (a.transformation * c - b.transformation * c).norm() > 2 * a.support.reach;
 }
 
 class Pipeline {
@@ -107,7 +116,8 @@ class Pipeline {
   AlignCandidate refine_from(const Eigen::Isometry3d& init, const std::string& path,
                              RefineResult& r);
   GlobalResult run_global();
-  AlignCandidate refine_global(RefineResult& r);
+  AlignCandidate refine_global(RefineResult& r, bool& ambiguous);
+  void warn_ambiguous_global();
   void keep(const AlignCandidate& c, RefineResult r);
 
   const PointCloud& source_;
@@ -175,28 +185,27 @@ void Pipeline::keep(const AlignCandidate& c, RefineResult r) {
 }
 
 // ICP from the global pose and, when the global stage found a distinct runner-up, from that too;
-// the better supported answer is returned in `best` / `r`. The ambiguity stands (a warning) only
-// when neither answer is clearly better supported than the other.
-AlignCandidate Pipeline::refine_global(RefineResult& r) {
+// the better supported answer is returned, its ICP in `r`. `ambiguous` is set when neither answer
+// is clearly better supported than the other.
+AlignCandidate Pipeline::refine_global(RefineResult& r, bool& ambiguous) {
   AlignCandidate best = refine_from(out_.global->T_target_source, "global", r);
-  bool resolved = !out_.global->ambiguous;
-  if (out_.global->ambiguous) {
-    RefineResult r2;
-    const AlignCandidate second =
-        refine_from(out_.global->second_T_target_source, "global runner-up", r2);
-    const bool failed = r.icp.stop_reason == StopReason::kTooFewCorrespondences;
-    if (clearly_better(second, best, failed)) {
-      best = second;
-      r = std::move(r2);
-      resolved = true;
-    } else {
-      resolved = clearly_better(best, second, false);
-    }
+  ambiguous = false;
+  if (!out_.global->ambiguous) return best;
+  RefineResult r2;
+  const AlignCandidate second =
+      refine_from(out_.global->second_T_target_source, "global runner-up", r2);
+  const bool failed = r.icp.stop_reason == StopReason::kTooFewCorrespondences;
+  if (clearly_better(second, best, failed)) {
+    r = std::move(r2);
+    return second;
   }
-  if (!resolved)
-    out_.warnings.push_back({"ambiguous", "global registration: " + out_.global->message +
-                                              "; ICP from either pose is supported alike"});
+  ambiguous = !clearly_better(best, second, false);
   return best;
+}
+
+void Pipeline::warn_ambiguous_global() {
+  out_.warnings.push_back({"ambiguous", "global registration: " + out_.global->message +
+                                            "; ICP from either pose is supported alike"});
 }
 
 AlignResult Pipeline::run() {
@@ -208,15 +217,32 @@ AlignResult Pipeline::run() {
         policy == InitPolicy::kIdentity ? Eigen::Isometry3d::Identity() : s_.initial_pose;
     const AlignCandidate first = refine_from(init, "initial", r);
     keep(first, std::move(r));
-    if (policy == InitPolicy::kAuto && first.weak) {
-      out_.reason =
-          "ICP from the initial pose: " + weaknesses(out_.refine, first.support).front().message;
+    const bool unconfirmed = first.support.overlap < kConfirmedOverlap;
+    if (policy == InitPolicy::kAuto && (first.weak || unconfirmed)) {
+      out_.reason = "ICP from the initial pose: " +
+                    (first.weak ? weaknesses(out_.refine, first.support).front().message
+                                : "only " + fixed(100 * first.support.overlap, 1) + " % of the " +
+                                      to_string(first.support.object) +
+                                      " lies on the other cloud's surface (less than " +
+                                      fixed(100 * kConfirmedOverlap, 0) + " %: unconfirmed)");
       out_.global = run_global();
       if (out_.global->success) {
         RefineResult r2;
-        const AlignCandidate second = refine_global(r2);
-        if (clearly_better(second, first, !out_.success)) keep(second, std::move(r2));
-      } else {
+        bool ambiguous = false;
+        const AlignCandidate second = refine_global(r2, ambiguous);
+        if (clearly_better(second, first, !out_.success)) {
+          keep(second, std::move(r2));
+          if (ambiguous) warn_ambiguous_global();
+        } else if (!clearly_better(first, second, false) &&
+                   distinct(first, second, source_, global_.distinct_rotation_deg))
+          out_.warnings.push_back(
+              {"ambiguous",
+               "ICP from the initial pose and from the global pose end " +
+                   fixed(pose_error(first.transformation, second.transformation).rotation_deg, 1) +
+                   " deg apart, supported alike (overlap " + fixed(first.support.overlap, 2) +
+                   " and " + fixed(second.support.overlap, 2) +
+                   "); the initial pose's answer was kept"});
+      } else if (first.weak) {
         out_.warnings.push_back({"global_failed",
                                  "the answer from the initial pose is weak and global "
                                  "registration found no pose either: " +
@@ -230,11 +256,11 @@ AlignResult Pipeline::run() {
       out_.timings.total_ms = ms_since(start);
       return std::move(out_);
     }
-    const AlignCandidate c = refine_global(r);
+    bool ambiguous = false;
+    const AlignCandidate c = refine_global(r, ambiguous);
     keep(c, std::move(r));
+    if (ambiguous) warn_ambiguous_global();
   }
-  if (out_.path == "initial")  // an ambiguity of a global answer not kept does not concern it
-    std::erase_if(out_.warnings, [](const Warning& w) { return w.code == "ambiguous"; });
   if (out_.success)
     for (Warning& w : weaknesses(out_.refine, out_.support)) out_.warnings.push_back(std::move(w));
   out_.timings.total_ms = ms_since(start);

@@ -2,8 +2,8 @@
 // float32-rounded original; hand-built files (bytes written here, independently of the writers)
 // with known coordinates; and a catalogue of malformed files, each of which must raise an IoError
 // naming the file and the problem.
-#include <gtest/gtest.h>
 #include <fcntl.h>
+#include <gtest/gtest.h>
 #include <sys/stat.h>
 #include <unistd.h>
 

@@ -10,12 +10,15 @@
 //   identity, pose  ICP (refine) from the identity or from initial_pose;
 //   global          the global stage (fpfh or ppf), then ICP from its pose; no pose with enough
 //                   support is no solution (success false);
-//   auto (default)  ICP from initial_pose; when its answer is weakly supported (support.hpp) —
-//                   overlap below kWeakOverlap, RMS above kWeakRms × the noise σ₀, free directions
-//                   (degeneracy.hpp), or no convergence — the global stage runs too, ICP refines
-//                   its pose, and the better supported of the two answers is kept: the global one
-//                   only when its overlap is clearly larger (by kClearlyBetter) or equal with a
-//                   clearly smaller RMS. `path` says which answer was kept.
+//   auto (default)  ICP from initial_pose; when its answer is weak (support.hpp: overlap below
+//                   kWeakOverlap, RMS above kWeakRms × the noise σ₀, free directions
+//                   (degeneracy.hpp), no convergence) or merely unconfirmed (overlap below
+//                   kConfirmedOverlap: a partial view slid face on face can fit that well), the
+//                   global stage runs too, ICP refines its pose, and the better supported of the
+//                   two answers is kept: the global one only when its overlap is clearly larger
+//                   (by kClearlyBetter). Two distinct poses supported alike are ambiguous (a
+//                   warning; the initial pose's answer is kept). `path` says which answer was
+//                   kept, `reason` why the global stage ran.
 // ICP direction: when the source is the object and the target is much wider (its robust extent
 // more than kReverseExtentRatio × the source's: a part registered into a scene), ICP runs the other
 // way round, the target onto the source, and its answer is inverted: every scene point near the
@@ -48,6 +51,7 @@ const char* to_string(InitPolicy p);
 
 // Support below either bound makes an answer weak (see above).
 constexpr double kWeakOverlap = 0.2;
+constexpr double kConfirmedOverlap = 0.5;
 constexpr double kWeakRms = 2.5;
 constexpr double kClearlyBetter = 0.05;
 constexpr double kReverseExtentRatio = 2.0;
@@ -73,7 +77,7 @@ struct AlignCandidate {
   Eigen::Isometry3d transformation = Eigen::Isometry3d::Identity();
   Support support;
   double rms = 0;
-  bool weak = false;
+  bool weak = false;  // has warnings (align.hpp)
 };
 
 struct AlignTimings {

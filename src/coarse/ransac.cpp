@@ -6,8 +6,10 @@
 // Departures from Open3D, each measured on the synthetic scenes (tests/ransac_test.cpp): isolated
 // points are dropped after downsampling (drop_isolated); normals are oriented by
 // orient_normals_consistently, which moves with the cloud (Open3D's sign does not, so its
-// features change under a large rotation); sliver samples are rejected; the winner is refined on
-// its inliers; and distinct runner-up poses are kept for the ambiguity report.
+// features change under a large rotation); sliver samples are rejected; descriptors are matched
+// from the object's points (global.hpp); every remembered pose is refined on its inliers and the
+// winner is the one that lays most of the object onto the other cloud's surface (surface_fit), not
+// the one with most inliers; and distinct runner-up poses are kept for the ambiguity report.
 #include "align3d/coarse/ransac.hpp"
 
 #include <algorithm>
@@ -221,6 +223,7 @@ struct Pose {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
   std::size_t score = 0;    // inlier correspondences
   std::uint64_t index = 0;  // hypothesis index (ties: the lower wins)
+  double fit = 0;           // surface_fit of the object once refined (step 6)
 };
 
 bool better(const Pose& a, const Pose& b) {
@@ -392,14 +395,21 @@ GlobalResult fpfh_ransac_register(const PointCloud& source, const PointCloud& ta
     return finish(result);
   }
 
-  // Step 6: refine every remembered pose (a 3-point estimate ranks poses only roughly) and keep
-  // the best refined one; measure its overlap.
-  for (Pose& pose : poses) pose = refine(corr, pose, sq_radius);
-  std::sort(poses.begin(), poses.end(), better);
+  // Step 6: refine every remembered pose (a 3-point estimate ranks poses only roughly), measure how
+  // much of the object each lays onto the other cloud's surface, and keep the best fit: inlier
+  // counts rank poses of a box-like part poorly (its flat faces give many alike descriptors, and a
+  // pose that slides one face onto another gathers as many inliers as the truth), the fit does not.
+  for (Pose& pose : poses) {
+    pose = refine(corr, pose, sq_radius);
+    pose.fit = object_overlap(pose.T);
+  }
+  std::sort(poses.begin(), poses.end(), [](const Pose& a, const Pose& b) {
+    return a.fit != b.fit ? a.fit > b.fit : better(a, b);
+  });
   const Pose best = poses.front();
   result.T_target_source = best.T;
   result.score = static_cast<double>(best.score);
-  result.overlap = object_overlap(best.T);
+  result.overlap = best.fit;
 
   // Step 7: success.
   if (result.overlap < settings.min_overlap) {
@@ -412,7 +422,7 @@ GlobalResult fpfh_ransac_register(const PointCloud& source, const PointCloud& ta
     result.success = true;
   }
 
-  // Step 8: the refined poses distinct from the winner, best first; the first that explains the
+  // Step 8: the refined poses distinct from the winner, best fit first; the first that explains the
   // geometry about as well (overlap within ambiguity_ratio of the winner's) with its own evidence
   // (at least half the winner's inlier count among correspondences that are not inliers of the
   // winner) makes the result ambiguous. The second condition tells a symmetric twin (disjoint
@@ -424,7 +434,7 @@ GlobalResult fpfh_ransac_register(const PointCloud& source, const PointCloud& ta
     if (!distinct(poses[i].T, best.T)) continue;  // refinement joined the winner
     const Pose& second = poses[i];
     const std::size_t own = count_exclusive(corr, second.T, best.T, sq_radius);
-    const double overlap = object_overlap(second.T);
+    const double overlap = second.fit;
     if (overlap >= settings.ambiguity_ratio * result.overlap &&
         static_cast<double>(own) >= kTwinSupport * result.score && own >= kMinInliers) {
       result.ambiguous = true;

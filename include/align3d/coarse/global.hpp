@@ -64,8 +64,8 @@ struct GlobalResult {
   Eigen::Isometry3d T_target_source = Eigen::Isometry3d::Identity();  // target ≈ T·source
   GlobalMethod method = GlobalMethod::kFpfh;
   Role object = Role::kTarget;  // the cloud the defaults followed
-  // The measure the winner was chosen by: fpfh, inlier correspondences of the best hypothesis;
-  // ppf, the share of the scene's downsampled points laid onto the model surface ("fit").
+  // fpfh: inlier correspondences of the winner (the refined hypothesis with the best `overlap`);
+  // ppf: the winner's fit (= overlap), by which it was chosen.
   double score = 0;
   double votes = 0;            // ppf: votes of the winning pose cluster (0 for fpfh)
   double overlap = 0;          // surface_fit of the object's downsampled points at the pose
