@@ -710,3 +710,98 @@ TEST(CliSynth, ViewsWritePosesAndPairsThatAgree) {
 
 }  // namespace
 }  // namespace align3d
+
+namespace align3d {
+namespace {
+
+// The report always holds the pipeline's account: which answer was kept, its support, warnings
+// (an empty list when clean).
+TEST_F(Cli, CleanRegistrationReportsItsSupportAndNoWarnings) {
+  const CliRun r = run({"register", scene("scan.ply"), scene("model.ply"), "--report", "-"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(r.err.find("warning"), std::string::npos) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  ASSERT_TRUE(j["warnings"].is_array());
+  EXPECT_TRUE(j["warnings"].empty()) << j["warnings"];
+  EXPECT_EQ(j["init"]["policy"], "auto");
+  EXPECT_EQ(j["init"]["path"], "initial");
+  EXPECT_EQ(j["init"]["candidates"].size(), 1u);
+  for (const char* key : {"overlap", "object", "noise", "spacing", "reach", "band"})
+    EXPECT_TRUE(j["support"].contains(key)) << key;
+  EXPECT_GT(j["support"]["overlap"].get<double>(), 0.6);
+}
+
+// The chapter's point-to-point ICP stops above the noise floor at its iteration cap: warnings on
+// stderr and in the report, exit 0; --strict makes them exit 7, outputs written all the same.
+TEST_F(Cli, WarningsAreReportedAndStrictMakesThemAnExitCode) {
+  test::TempDir out("strict");
+  const std::vector<std::string> chapter = {
+      "register",     scene("scan.ply"), scene("model.ply"), "--init", "identity",
+      "--method",     "point-to-point",  "--reject",           "median:2.5:0.5",
+      "--output",     (out / "aligned.ply").string()};
+  auto with = [&](std::vector<std::string> extra) {
+    std::vector<std::string> args = chapter;
+    args.insert(args.end(), extra.begin(), extra.end());
+    return run(args);
+  };
+  const CliRun lenient = with({"--report", (out / "r.json").string()});
+  EXPECT_EQ(lenient.code, 0) << lenient.err;
+  EXPECT_NE(lenient.err.find("align3d: warning: RMS"), std::string::npos) << lenient.err;
+  const auto j = nlohmann::json::parse(read_text(out / "r.json"));
+  std::vector<std::string> codes;
+  for (const auto& w : j["warnings"]) codes.push_back(w["code"]);
+  EXPECT_NE(std::find(codes.begin(), codes.end(), "high_rms"), codes.end()) << j["warnings"];
+  EXPECT_NE(std::find(codes.begin(), codes.end(), "not_converged"), codes.end()) << j["warnings"];
+  std::filesystem::remove(out / "aligned.ply");
+  const CliRun strict = with({"--strict"});
+  EXPECT_EQ(strict.code, code(ExitCode::kWarnings)) << strict.err;
+  EXPECT_TRUE(std::filesystem::exists(out / "aligned.ply"));
+}
+
+// Errors on the global path name the file at fault, whatever stage raises them.
+TEST_F(Cli, GlobalPathErrorsNameTheFile) {
+  test::TempDir d("eight");
+  std::string text;
+  for (int i = 0; i < 8; ++i)
+    text += std::to_string(i) + " " + std::to_string(i * i % 5) + " " + std::to_string(i % 3) + "\n";
+  write_text(d / "eight.xyz", text);
+  const CliRun r = run({"register", (d / "eight.xyz").string(), scene("model.ply"), "--init",
+                        "global"});
+  EXPECT_EQ(r.code, code(ExitCode::kData)) << r.err;
+  EXPECT_NE(r.err.find("eight.xyz (source): 8 points"), std::string::npos) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+}
+
+// A depth camera's view of a bin (floor tilted 4° to the camera, walls, parts, NaN holes): the
+// default (robust) fit levels the floor; a least-squares fit through everything is off and says
+// so, and --strict makes that an exit code.
+TEST_F(Cli, RectifyFindsTheFloorOfABinAndWarnsAboutAPlainFit) {
+  test::TempDir d("bin");
+  ASSERT_EQ(run({"synth", "--scene", "bin", d.path().string()}).code, 0);
+  const auto meta = nlohmann::json::parse(read_text(d / "scene.json"));
+  Eigen::Vector3d floor;
+  for (int k = 0; k < 3; ++k) floor(k) = meta["floor"]["normal"][k].get<double>();
+  const auto fitted_error_deg = [&](const nlohmann::json& report) {
+    Eigen::Vector3d n;
+    for (int k = 0; k < 3; ++k) n(k) = report["normal"][k].get<double>();
+    return rad_to_deg(std::acos(std::min(1.0, std::abs(n.dot(floor)))));
+  };
+  const CliRun robust = run({"rectify", (d / "scene.pcd").string(), "--report", "-"});
+  ASSERT_EQ(robust.code, 0) << robust.err;
+  const auto rj = nlohmann::json::parse(robust.out);
+  EXPECT_LT(fitted_error_deg(rj), 0.2);
+  EXPECT_TRUE(rj["warnings"].empty()) << rj["warnings"];
+  const CliRun plain =
+      run({"rectify", (d / "scene.pcd").string(), "--fit", "lsq", "--report", "-"});
+  ASSERT_EQ(plain.code, 0) << plain.err;
+  const auto pj = nlohmann::json::parse(plain.out);
+  EXPECT_GT(fitted_error_deg(pj), 1.0);
+  ASSERT_EQ(pj["warnings"].size(), 1u);
+  EXPECT_EQ(pj["warnings"][0]["code"], "not_flat");
+  EXPECT_NE(plain.err.find("align3d: warning: "), std::string::npos);
+  EXPECT_EQ(run({"rectify", (d / "scene.pcd").string(), "--fit", "lsq", "--strict"}).code,
+            code(ExitCode::kWarnings));
+}
+
+}  // namespace
+}  // namespace align3d
