@@ -303,6 +303,23 @@ KdTree::KdTree(const std::vector<Eigen::Vector3d>& points, int threads) : size_(
 
 KdTree::~KdTree() = default;
 
+namespace {
+
+// The k nearest into `out` with the result type of knn (ranked) or knn_unsorted, indices mapped
+// back to the input order.
+template <class Result, class Impl>
+void k_nearest(const Impl& impl, const Eigen::Vector3d& query, std::size_t k,
+               std::vector<Neighbor>& out) {
+  out.resize(k);
+  if (out.empty()) return;
+  Result result{out.data(), out.size()};
+  impl.search(query, result);
+  out.resize(result.count);  // fewer only for a NaN query
+  for (auto& nb : out) nb.index = impl.original[nb.index];
+}
+
+}  // namespace
+
 const std::vector<std::uint32_t>& KdTree::leaf_order() const { return impl_->original; }
 
 bool KdTree::nearest(const Eigen::Vector3d& query, Neighbor& out, double sq_max_distance) const {
@@ -314,22 +331,12 @@ bool KdTree::nearest(const Eigen::Vector3d& query, Neighbor& out, double sq_max_
 }
 
 void KdTree::knn(const Eigen::Vector3d& query, std::size_t k, std::vector<Neighbor>& out) const {
-  out.resize(std::min(k, size_));
-  if (out.empty()) return;
-  KnnResult result{out.data(), out.size()};
-  impl_->search(query, result);
-  out.resize(result.count);  // fewer only for a NaN query
-  for (auto& nb : out) nb.index = impl_->original[nb.index];
+  k_nearest<KnnResult>(*impl_, query, std::min(k, size_), out);
 }
 
 void KdTree::knn_unsorted(const Eigen::Vector3d& query, std::size_t k,
                           std::vector<Neighbor>& out) const {
-  out.resize(std::min(k, size_));
-  if (out.empty()) return;
-  KnnSetResult result{out.data(), out.size()};
-  impl_->search(query, result);
-  out.resize(result.count);  // fewer only for a NaN query
-  for (auto& nb : out) nb.index = impl_->original[nb.index];
+  k_nearest<KnnSetResult>(*impl_, query, std::min(k, size_), out);
 }
 
 void KdTree::radius(const Eigen::Vector3d& query, double sq_radius,

@@ -735,10 +735,17 @@ TEST_F(Cli, CleanRegistrationReportsItsSupportAndNoWarnings) {
 // stderr and in the report, exit 0; --strict makes them exit 7, outputs written all the same.
 TEST_F(Cli, WarningsAreReportedAndStrictMakesThemAnExitCode) {
   test::TempDir out("strict");
-  const std::vector<std::string> chapter = {
-      "register",     scene("scan.ply"), scene("model.ply"), "--init", "identity",
-      "--method",     "point-to-point",  "--reject",           "median:2.5:0.5",
-      "--output",     (out / "aligned.ply").string()};
+  const std::vector<std::string> chapter = {"register",
+                                            scene("scan.ply"),
+                                            scene("model.ply"),
+                                            "--init",
+                                            "identity",
+                                            "--method",
+                                            "point-to-point",
+                                            "--reject",
+                                            "median:2.5:0.5",
+                                            "--output",
+                                            (out / "aligned.ply").string()};
   auto with = [&](std::vector<std::string> extra) {
     std::vector<std::string> args = chapter;
     args.insert(args.end(), extra.begin(), extra.end());
@@ -763,10 +770,11 @@ TEST_F(Cli, GlobalPathErrorsNameTheFile) {
   test::TempDir d("eight");
   std::string text;
   for (int i = 0; i < 8; ++i)
-    text += std::to_string(i) + " " + std::to_string(i * i % 5) + " " + std::to_string(i % 3) + "\n";
+    text +=
+        std::to_string(i) + " " + std::to_string(i * i % 5) + " " + std::to_string(i % 3) + "\n";
   write_text(d / "eight.xyz", text);
-  const CliRun r = run({"register", (d / "eight.xyz").string(), scene("model.ply"), "--init",
-                        "global"});
+  const CliRun r =
+      run({"register", (d / "eight.xyz").string(), scene("model.ply"), "--init", "global"});
   EXPECT_EQ(r.code, code(ExitCode::kData)) << r.err;
   EXPECT_NE(r.err.find("eight.xyz (source): 8 points"), std::string::npos) << r.err;
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;

@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "align3d/error.hpp"
+#include "test_util.hpp"
 
 namespace align3d::report {
 namespace {
@@ -42,16 +43,8 @@ class ReleaseFontCaches : public ::testing::Environment {
 
 class FigureTest : public ::testing::Test {
  protected:
-  void SetUp() override {
-    std::mt19937_64 rng(std::random_device{}());
-    dir_ = fs::temp_directory_path() / ("align3d_figure_test_" + std::to_string(rng()));
-    fs::create_directories(dir_);
-  }
-  void TearDown() override {
-    std::error_code ec;
-    fs::remove_all(dir_, ec);
-  }
-  fs::path dir_;
+  test::TempDir temp_{"figure_test"};  // each test's own empty folder, removed afterwards
+  const fs::path dir_ = temp_.path();
 };
 
 // A decoded PNG with pixel access; the figures are opaque, so premultiplication does not matter.

@@ -40,18 +40,8 @@ namespace fs = std::filesystem;
 // Each test works in its own empty folder, removed afterwards.
 class IoTest : public ::testing::Test {
  protected:
-  void SetUp() override {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    std::string name = std::string(info->test_suite_name()) + "_" + info->name();
-    std::replace(name.begin(), name.end(), '/', '_');
-    dir_ = fs::temp_directory_path() /
-           ("align3d_io_test_" + name + "_" + std::to_string(std::random_device{}()));
-    fs::create_directories(dir_);
-  }
-  void TearDown() override {
-    std::error_code ec;
-    fs::remove_all(dir_, ec);
-  }
+  test::TempDir temp_{"io_test"};
+  const fs::path dir_ = temp_.path();
 
   fs::path write_file(const std::string& name, const std::string& bytes) const {
     const fs::path path = dir_ / name;
@@ -59,8 +49,6 @@ class IoTest : public ::testing::Test {
     out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
     return path;
   }
-
-  fs::path dir_;
 };
 
 // Builds binary file content value by value in a chosen byte order.
