@@ -67,6 +67,20 @@ std::vector<Warning> weaknesses(const RefineResult& r, const Support& s) {
   return w;
 }
 
+// Why an answer that is not weak still needs the global stage's view (align.hpp); empty when it
+// does not.
+std::string unconfirmed_because(const AlignCandidate& c) {
+  if (c.support.overlap < kConfirmedOverlap)
+    return "only " + fixed(100 * c.support.overlap, 1) + " % of the " +
+           to_string(c.support.object) + " lies on the other cloud's surface (less than " +
+           fixed(100 * kConfirmedOverlap, 0) + " %: unconfirmed)";
+  const double floor = noise_floor(c.support);
+  if (c.rms > kConfirmedRms * floor)
+    return "RMS " + number(c.rms) + " is " + fixed(c.rms / floor, 1) +
+           " x the noise estimate (more than " + fixed(kConfirmedRms, 2) + " x: unconfirmed)";
+  return {};
+}
+
 // B replaces A when A failed and B did not, or when B lays clearly more of the object on the
 // other cloud's surface (align.hpp). The RMS does not decide: a partial view slid face on face
 // keeps fewer pairs, on flat faces, and can show a smaller RMS than the truth.
@@ -217,14 +231,11 @@ AlignResult Pipeline::run() {
         policy == InitPolicy::kIdentity ? Eigen::Isometry3d::Identity() : s_.initial_pose;
     const AlignCandidate first = refine_from(init, "initial", r);
     keep(first, std::move(r));
-    const bool unconfirmed = first.support.overlap < kConfirmedOverlap;
-    if (policy == InitPolicy::kAuto && (first.weak || unconfirmed)) {
-      out_.reason = "ICP from the initial pose: " +
-                    (first.weak ? weaknesses(out_.refine, first.support).front().message
-                                : "only " + fixed(100 * first.support.overlap, 1) + " % of the " +
-                                      to_string(first.support.object) +
-                                      " lies on the other cloud's surface (less than " +
-                                      fixed(100 * kConfirmedOverlap, 0) + " %: unconfirmed)");
+    const std::string unconfirmed = unconfirmed_because(first);
+    if (policy == InitPolicy::kAuto && (first.weak || !unconfirmed.empty())) {
+      out_.reason =
+          "ICP from the initial pose: " +
+          (first.weak ? weaknesses(out_.refine, first.support).front().message : unconfirmed);
       out_.global = run_global();
       if (out_.global->success) {
         RefineResult r2;

@@ -61,10 +61,16 @@ TEST_P(PartialViews, AutoChoosesGlobalExactlyWhereIcpAloneFails) {
   icp_alone.init = InitPolicy::kIdentity;
   const AlignResult a = align(s.scan, s.model, icp_alone);
   const bool icp_right = pose_error(a.transformation, s.T_model_scan).rotation_deg < 0.1;
-  if (os.rotation_deg >= 90) EXPECT_FALSE(icp_right);  // the test must exercise both paths
-  if (os.rotation_deg <= 30) EXPECT_TRUE(icp_right);
+  if (os.rotation_deg >= 90) {  // the test must exercise both paths
+    EXPECT_FALSE(icp_right);
+  }
+  if (os.rotation_deg <= 30) {
+    EXPECT_TRUE(icp_right);
+  }
   // ICP alone is never wrong in silence.
-  if (!icp_right) EXPECT_FALSE(a.warnings.empty());
+  if (!icp_right) {
+    EXPECT_FALSE(a.warnings.empty());
+  }
 
   const AlignResult r = align(s.scan, s.model);
   ASSERT_TRUE(r.success) << r.failure;

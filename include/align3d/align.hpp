@@ -13,7 +13,9 @@
 //   auto (default)  ICP from initial_pose; when its answer is weak (support.hpp: overlap below
 //                   kWeakOverlap, RMS above kWeakRms × the noise σ₀, free directions
 //                   (degeneracy.hpp), no convergence) or merely unconfirmed (overlap below
-//                   kConfirmedOverlap: a partial view slid face on face can fit that well), the
+//                   kConfirmedOverlap, or RMS above kConfirmedRms × σ₀: a partial view slid
+//                   face on face, or turned by a quarter about a box-like part, can fit that
+//                   well), the
 //                   global stage runs too, ICP refines its pose, and the better supported of the
 //                   two answers is kept: the global one only when its overlap is clearly larger
 //                   (by kClearlyBetter). Two distinct poses supported alike are ambiguous (a
@@ -52,6 +54,7 @@ const char* to_string(InitPolicy p);
 // Support below either bound makes an answer weak (see above).
 constexpr double kWeakOverlap = 0.2;
 constexpr double kConfirmedOverlap = 0.5;
+constexpr double kConfirmedRms = 1.75;
 constexpr double kWeakRms = 2.5;
 constexpr double kClearlyBetter = 0.05;
 constexpr double kReverseExtentRatio = 2.0;
