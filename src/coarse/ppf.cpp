@@ -134,6 +134,213 @@ std::string percent(double share) {
   return std::to_string(tenths / 10) + "." + std::to_string(tenths % 10) + " %";
 }
 
+// The kPeaksPerReference highest accumulator cells of one scene reference.
+using Peaks = std::array<Peak, kPeaksPerReference>;
+
+// Adds the votes of scene reference r (Drost, section 3.4): each scene pair (r, m) whose feature
+// is in the model's table votes for every (model reference, α bin) cell stored under that key.
+void accumulate_votes(const PpfModel& model, const PointCloud& down, const KdTree& scene_tree,
+                      std::size_t r, std::vector<std::uint32_t>& votes) {
+  thread_local std::vector<Neighbor> nb;
+  const double voxel = model.voxel;
+  const std::uint32_t bins = model.angle_bins;
+  const double alpha_step = 2 * kPi / bins;
+  const double sq_diameter = model.diameter * model.diameter;
+  const Eigen::Vector3d& p_r = down.positions[r];
+  const Eigen::Vector3d& n_r = down.normals[r];
+  const Eigen::Isometry3d T_s = to_x_axis(p_r, n_r);
+  scene_tree.radius(p_r, sq_diameter, nb);
+  for (const Neighbor& m : nb) {
+    std::uint64_t key;
+    if (m.index == r ||
+        !feature_key(p_r, n_r, down.positions[m.index], down.normals[m.index], voxel, bins, key))
+      continue;
+    const auto it = std::lower_bound(model.keys.begin(), model.keys.end(), key);
+    if (it == model.keys.end() || *it != key) continue;
+    const auto k = static_cast<std::size_t>(it - model.keys.begin());
+    const double alpha_s = half_plane_angle(T_s, down.positions[m.index]);
+    for (std::uint32_t e = model.offsets[k]; e < model.offsets[k + 1]; ++e) {
+      double alpha = model.alphas[e] - alpha_s;  // α = α_m − α_s, wrapped to [−π, π)
+      if (alpha < -kPi) alpha += 2 * kPi;
+      if (alpha >= kPi) alpha -= 2 * kPi;
+      const auto b = std::min<std::uint32_t>(
+          bins - 1, static_cast<std::uint32_t>(std::max(0.0, (alpha + kPi) / alpha_step)));
+      ++votes[static_cast<std::size_t>(model.refs[e]) * bins + b];
+    }
+  }
+}
+
+// The highest cells of an accumulator, descending by votes; ties keep the lower cell.
+Peaks highest_cells(const std::vector<std::uint32_t>& votes) {
+  Peaks top;
+  for (std::size_t c = 0; c < votes.size(); ++c) {
+    if (votes[c] <= top.back().votes) continue;
+    std::size_t at = kPeaksPerReference - 1;
+    while (at > 0 && votes[c] > top[at - 1].votes) {
+      top[at] = top[at - 1];
+      --at;
+    }
+    top[at] = {votes[c], static_cast<std::uint32_t>(c)};
+  }
+  return top;
+}
+
+// Voting (Drost, section 3.4): one accumulator over (model reference, α bin) per scene reference
+// (every kSceneReferenceStep-th scene point); its kPeaksPerReference highest cells are kept.
+std::vector<Peaks> vote(const PpfModel& model, const PointCloud& down, const KdTree& scene_tree,
+                        int threads) {
+  const std::size_t references = (down.size() + kSceneReferenceStep - 1) / kSceneReferenceStep;
+  const std::size_t cells = model.points.size() * model.angle_bins;
+  std::vector<Peaks> peaks(references);
+  parallel_for(references, threads, [&](std::size_t j) {
+    thread_local std::vector<std::uint32_t> votes;
+    votes.assign(cells, 0);
+    accumulate_votes(model, down, scene_tree, j * kSceneReferenceStep, votes);
+    peaks[j] = highest_cells(votes);
+  });
+  return peaks;
+}
+
+// Poses of the peaks, strongest first: T_model_scene = T_m⁻¹ · R_x(α_s − α_m) · T_s, with α at
+// the bin centre.
+std::vector<Candidate> peak_poses(const PpfModel& model, const PointCloud& down,
+                                  const std::vector<Peaks>& peaks) {
+  const std::uint32_t bins = model.angle_bins;
+  const double alpha_step = 2 * kPi / bins;
+  std::vector<Candidate> candidates;
+  for (std::size_t j = 0; j < peaks.size(); ++j) {
+    const std::size_t r = j * kSceneReferenceStep;
+    const Eigen::Isometry3d T_s = to_x_axis(down.positions[r], down.normals[r]);
+    for (const Peak& peak : peaks[j]) {
+      if (peak.votes == 0) break;
+      const std::size_t m = peak.cell / bins;
+      const double alpha = -kPi + (peak.cell % bins + 0.5) * alpha_step;
+      const Eigen::Isometry3d T_m = to_x_axis(model.points.positions[m], model.points.normals[m]);
+      candidates.push_back(
+          {T_m.inverse() * Eigen::AngleAxisd(-alpha, Eigen::Vector3d::UnitX()) * T_s,
+           static_cast<double>(peak.votes)});
+    }
+  }
+  std::stable_sort(candidates.begin(), candidates.end(),
+                   [](const Candidate& a, const Candidate& b) { return a.votes > b.votes; });
+  return candidates;
+}
+
+// Pose clustering (Drost, section 3.5): greedy, strongest first; a pose joins the first cluster
+// whose strongest pose is within 12° and moves the scene centroid to within 2 voxels of it.
+// Comparing moved centroids, not raw translations, keeps the test independent of the frame.
+// Returns the clusters, most votes first.
+std::vector<Cluster> cluster_poses(const std::vector<Candidate>& candidates,
+                                   const Eigen::Vector3d& scene_centre, double voxel) {
+  const double cos_half_rotation = std::cos(deg_to_rad(kClusterRotationDeg) / 2);
+  const double cluster_radius = kClusterVoxels * voxel;
+  std::vector<Cluster> clusters;
+  for (const Candidate& cand : candidates) {
+    const Eigen::Quaterniond q(cand.T.linear());
+    const Eigen::Vector3d x = cand.T * scene_centre;
+    Cluster* home = nullptr;
+    for (Cluster& cl : clusters)
+      if ((cl.x_first - x).norm() < cluster_radius &&
+          std::abs(cl.q_first.dot(q)) >= cos_half_rotation) {
+        home = &cl;
+        break;
+      }
+    if (!home) {
+      clusters.push_back({q, x});
+      home = &clusters.back();
+    }
+    const double sign = home->q_first.dot(q) < 0 ? -1.0 : 1.0;
+    home->q_sum += sign * cand.votes * q.coeffs();
+    home->x_sum += cand.votes * x;
+    home->votes += cand.votes;
+  }
+  std::stable_sort(clusters.begin(), clusters.end(),
+                   [](const Cluster& a, const Cluster& b) { return a.votes > b.votes; });
+  return clusters;
+}
+
+// The refined poses of the strongest clusters (index c: clusters[c]), their surface fits and the
+// best fitting one.
+struct Verified {
+  std::vector<Eigen::Isometry3d> poses;
+  std::vector<double> fits;
+  std::size_t best = 0;
+};
+
+// Verification: refine the strongest clusters and keep the pose that lays most of the model onto
+// the scene's surface (surface_fit, global.hpp: nearness alone barely separates a plane slid over
+// a plane from the true pose; counted on the model's side, because a pose that lays a face of the
+// model on a wide floor lays many scene points onto the model but few of the model's). The winner
+// is refined further.
+Verified verify_clusters(const PpfModel& model, const PointCloud& down, const KdTree& scene_tree,
+                         const Eigen::Vector3d& scene_centre, const std::vector<Cluster>& clusters,
+                         int threads) {
+  const double voxel = model.voxel;
+  const KdTree model_tree(model.points.positions, threads);
+  const std::size_t verified = std::min(kVerifiedClusters, clusters.size());
+  Verified v;
+  v.poses.resize(verified);
+  v.fits.resize(verified);
+  for (std::size_t c = 0; c < verified; ++c) {
+    const Cluster& cl = clusters[c];
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.linear() = Eigen::Quaterniond(Eigen::Vector4d(cl.q_sum.normalized())).toRotationMatrix();
+    T.translation() = cl.x_sum / cl.votes - T.linear() * scene_centre;
+    v.poses[c] = refine(down, model.points, model_tree, T, voxel, kRefineIterations, threads);
+    v.fits[c] = surface_fit(model.points, down, scene_tree, v.poses[c].inverse(), voxel, threads);
+    if (v.fits[c] > v.fits[v.best]) v.best = c;
+  }
+  const std::size_t best = v.best;
+  v.poses[best] =
+      refine(down, model.points, model_tree, v.poses[best], voxel, kFinalIterations, threads);
+  v.fits[best] =
+      surface_fit(model.points, down, scene_tree, v.poses[best].inverse(), voxel, threads);
+  return v;
+}
+
+// Ambiguity (coarse/global.hpp): the best-fitting runner-up distinct from the winner, compared by
+// the same fit; marks `result` ambiguous when it fits within ambiguity_ratio of the winner.
+void note_ambiguity(const Verified& v, const Eigen::Vector3d& scene_centre, double voxel,
+                    const GlobalSettings& settings, GlobalResult& result) {
+  const double cluster_radius = kClusterVoxels * voxel;
+  const std::size_t verified = v.poses.size(), best = v.best;
+  std::size_t second = verified;
+  for (std::size_t c = 0; c < verified; ++c) {
+    if (c == best) continue;
+    const double rotation =
+        rad_to_deg(rotation_angle(v.poses[c].linear().transpose() * v.poses[best].linear()));
+    const double shift = (v.poses[c] * scene_centre - v.poses[best] * scene_centre).norm();
+    const bool distinct = rotation > settings.distinct_rotation_deg || shift > cluster_radius;
+    if (distinct && (second == verified || v.fits[c] > v.fits[second])) second = c;
+  }
+  if (result.success && second < verified &&
+      v.fits[second] >= settings.ambiguity_ratio * v.fits[best]) {
+    result.ambiguous = true;
+    result.second_T_target_source = v.poses[second];
+    result.second_score = v.fits[second];
+    const std::string note = "ppf: ambiguous: a distinct pose fits " + percent(v.fits[second]) +
+                             " of the scene to the model surface against " + percent(v.fits[best]) +
+                             " (a symmetric part?)";
+    result.message = result.message.empty() ? note : result.message + "; " + note;
+  }
+}
+
+// Fills `result` with the verified winner and whether its fit reaches min_overlap.
+void take_winner(const Verified& v, const std::vector<Cluster>& clusters,
+                 const GlobalSettings& settings, GlobalResult& result) {
+  result.T_target_source = v.poses[v.best];
+  // The model is the object: the overlap is its fit (global.hpp).
+  result.overlap = v.fits[v.best];
+  result.score = v.fits[v.best];
+  result.votes = clusters[v.best].votes;
+  result.candidates = v.poses.size();
+  result.success = result.overlap >= settings.min_overlap;
+  if (!result.success)
+    result.message = "ppf: the best pose explains only " + percent(result.overlap) +
+                     " of the model's points within 1.5 voxels (minimum " +
+                     percent(settings.min_overlap) + ")";
+}
+
 // ---- binary format helpers (little-endian, independent of the host) ----
 
 constexpr char kMagic[8] = {'A', '3', 'D', 'P', 'P', 'F', '\r', '\n'};
@@ -160,6 +367,133 @@ std::uint32_t get_u32(const unsigned char* p) {
 std::uint64_t get_u64(const unsigned char* p) { return get_bytes(p, 8); }
 float get_f32(const unsigned char* p) { return std::bit_cast<float>(get_u32(p)); }
 double get_f64(const unsigned char* p) { return std::bit_cast<double>(get_u64(p)); }
+
+// ---- reading a model file (load_ppf_model) ----
+
+// The error for a malformed model file: "PATH: WHAT at byte offset N".
+IoError format_error(const std::filesystem::path& path, const std::string& what,
+                     std::uint64_t offset) {
+  return IoError(path.string() + ": " + what + " at byte offset " + std::to_string(offset));
+}
+
+// The table sizes a model file's header declares.
+struct TableCounts {
+  std::uint64_t points, keys, entries;
+};
+
+// Throws unless the declared tables fill a file of `size` bytes exactly and fit the format.
+void check_counts(const TableCounts& n, std::uint64_t size, const std::filesystem::path& path) {
+  // Sizes against the file before any allocation; each count is bounded first, so the sum
+  // cannot overflow.
+  const std::uint64_t body = size - kHeaderBytes;
+  if (n.points > body / kPointBytes || n.keys > body / (kKeyBytes + kOffsetBytes) ||
+      n.entries > body / kEntryBytes ||
+      kHeaderBytes + n.points * kPointBytes + n.keys * (kKeyBytes + kOffsetBytes) + kOffsetBytes +
+              n.entries * kEntryBytes !=
+          size)
+    throw format_error(path,
+                       "the header's counts (" + std::to_string(n.points) + " points, " +
+                           std::to_string(n.keys) + " keys, " + std::to_string(n.entries) +
+                           " entries) do not match the file size of " + std::to_string(size) +
+                           " bytes",
+                       32);
+  if (n.points < kMinPoints) throw format_error(path, "fewer than 10 model points", 32);
+  if (n.entries > std::numeric_limits<std::uint32_t>::max())
+    throw format_error(path, "too many entries", 48);
+}
+
+// Reads and checks the header of a file of `size` bytes (`in` at its start), sets the model's
+// angle bins, voxel and diameter, and returns the table sizes, checked against the file size.
+TableCounts read_header(std::istream& in, std::uint64_t size, const std::filesystem::path& path,
+                        PpfModel& model) {
+  auto error = [&](const std::string& what, std::uint64_t offset) {
+    return format_error(path, what, offset);
+  };
+  unsigned char header[kHeaderBytes] = {};
+  const auto head = static_cast<std::size_t>(std::min(size, kHeaderBytes));
+  if (!in.read(reinterpret_cast<char*>(header), static_cast<std::streamsize>(head)))
+    throw error("read failed", 0);
+  // The magic first (over what the file has of it), so a file of another type is named as such.
+  if (std::memcmp(header, kMagic, std::min(head, sizeof kMagic)) != 0 || head < sizeof kMagic)
+    throw error("not an align3d PPF model (wrong magic)", 0);
+  if (size < kHeaderBytes)
+    throw error("truncated header (" + std::to_string(size) + " bytes)", size);
+  if (const std::uint32_t version = get_u32(header + 8); version != kVersion)
+    throw error("unsupported version " + std::to_string(version), 8);
+  model.angle_bins = get_u32(header + 12);
+  if (model.angle_bins < 1 || model.angle_bins > 360)
+    throw error("angle bin count " + std::to_string(model.angle_bins) + " out of range", 12);
+  model.voxel = get_f64(header + 16);
+  if (!(model.voxel > 0) || !std::isfinite(model.voxel)) throw error("voxel not positive", 16);
+  model.diameter = get_f64(header + 24);
+  if (!(model.diameter >= 0) || !std::isfinite(model.diameter))
+    throw error("diameter not finite", 24);
+  const TableCounts n{get_u64(header + 32), get_u64(header + 40), get_u64(header + 48)};
+  check_counts(n, size, path);
+  return n;
+}
+
+// A read position in the body (the tables after the header); errors name it as a file offset.
+struct BodyReader {
+  const std::filesystem::path& path;
+  const unsigned char* begin;
+  const unsigned char* at;
+  IoError error(const std::string& what, const unsigned char* p) const {
+    return format_error(path, what, kHeaderBytes + static_cast<std::uint64_t>(p - begin));
+  }
+};
+
+// Reads the points and their normals, which must be finite and of unit length.
+void read_points(BodyReader& body, std::uint64_t points, PpfModel& model) {
+  model.points.positions.resize(points);
+  model.points.normals.resize(points);
+  for (std::uint64_t i = 0; i < points; ++i, body.at += kPointBytes) {
+    const unsigned char* at = body.at;
+    Eigen::Vector3d p, n;
+    for (int a = 0; a < 3; ++a) p(a) = get_f64(at + 8 * a), n(a) = get_f64(at + 24 + 8 * a);
+    if (!p.allFinite()) throw body.error("point " + std::to_string(i) + " is not finite", at);
+    if (!n.allFinite() || std::abs(n.norm() - 1) > 1e-6)
+      throw body.error("normal " + std::to_string(i) + " is not a unit vector", at + 24);
+    model.points.positions[i] = p;
+    model.points.normals[i] = n;
+  }
+}
+
+// Reads the feature keys (strictly increasing) and the bucket offsets (from 0, strictly
+// increasing, the last one the entry count).
+void read_buckets(BodyReader& body, const TableCounts& n, PpfModel& model) {
+  model.keys.resize(n.keys);
+  for (std::uint64_t k = 0; k < n.keys; ++k, body.at += kKeyBytes) {
+    model.keys[k] = get_u64(body.at);
+    if (k > 0 && model.keys[k] <= model.keys[k - 1])
+      throw body.error("feature keys not strictly increasing", body.at);
+  }
+  model.offsets.resize(n.keys + 1);
+  for (std::uint64_t k = 0; k <= n.keys; ++k, body.at += kOffsetBytes) {
+    model.offsets[k] = get_u32(body.at);
+    const bool ok = k == 0 ? model.offsets[k] == 0
+                           : model.offsets[k] > model.offsets[k - 1] &&
+                                 (k < n.keys || model.offsets[k] == n.entries);
+    if (!ok) throw body.error("bucket offset " + std::to_string(k) + " is inconsistent", body.at);
+  }
+}
+
+// Reads the entries: a model point index below the point count and an angle α within [-π, π].
+void read_entries(BodyReader& body, const TableCounts& n, PpfModel& model) {
+  model.refs.resize(n.entries);
+  model.alphas.resize(n.entries);
+  for (std::uint64_t e = 0; e < n.entries; ++e, body.at += kEntryBytes) {
+    const unsigned char* at = body.at;
+    model.refs[e] = get_u32(at);
+    model.alphas[e] = get_f32(at + 4);
+    if (model.refs[e] >= n.points)
+      throw body.error("entry " + std::to_string(e) + " names point " +
+                           std::to_string(model.refs[e]) + " of " + std::to_string(n.points),
+                       at);
+    if (!(std::abs(model.alphas[e]) <= kPi + 1e-5))
+      throw body.error("entry " + std::to_string(e) + " has an angle outside [-pi, pi]", at + 4);
+  }
+}
 
 }  // namespace
 
@@ -239,167 +573,30 @@ GlobalResult ppf_match(const PpfModel& model, const PointCloud& scene,
     throw std::invalid_argument("ppf_match: the model is empty or inconsistent");
   const int threads = settings.threads;
   const double voxel = model.voxel;
-  const std::uint32_t bins = model.angle_bins;
   GlobalResult result;
   result.method = GlobalMethod::kPpf;
   result.voxel = voxel;
   const PointCloud down = oriented_downsample(scene, voxel, threads, "scene");
   const KdTree scene_tree(down.positions, threads);
   const Eigen::Vector3d scene_centre = centroid(down);
+  const auto elapsed_ms = [&] {
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+        .count();
+  };
 
-  // Voting (Drost, section 3.4): one accumulator over (model reference, α bin) per scene
-  // reference; its kPeaksPerReference highest cells become pose candidates.
-  const std::size_t references = (down.size() + kSceneReferenceStep - 1) / kSceneReferenceStep;
-  const std::size_t cells = model.points.size() * bins;
-  const double alpha_step = 2 * kPi / bins;
-  const double sq_diameter = model.diameter * model.diameter;
-  std::vector<std::array<Peak, kPeaksPerReference>> peaks(references);
-  parallel_for(references, threads, [&](std::size_t j) {
-    thread_local std::vector<std::uint32_t> votes;
-    thread_local std::vector<Neighbor> nb;
-    votes.assign(cells, 0);
-    const std::size_t r = j * kSceneReferenceStep;
-    const Eigen::Vector3d& p_r = down.positions[r];
-    const Eigen::Vector3d& n_r = down.normals[r];
-    const Eigen::Isometry3d T_s = to_x_axis(p_r, n_r);
-    scene_tree.radius(p_r, sq_diameter, nb);
-    for (const Neighbor& m : nb) {
-      std::uint64_t key;
-      if (m.index == r ||
-          !feature_key(p_r, n_r, down.positions[m.index], down.normals[m.index], voxel, bins, key))
-        continue;
-      const auto it = std::lower_bound(model.keys.begin(), model.keys.end(), key);
-      if (it == model.keys.end() || *it != key) continue;
-      const auto k = static_cast<std::size_t>(it - model.keys.begin());
-      const double alpha_s = half_plane_angle(T_s, down.positions[m.index]);
-      for (std::uint32_t e = model.offsets[k]; e < model.offsets[k + 1]; ++e) {
-        double alpha = model.alphas[e] - alpha_s;  // α = α_m − α_s, wrapped to [−π, π)
-        if (alpha < -kPi) alpha += 2 * kPi;
-        if (alpha >= kPi) alpha -= 2 * kPi;
-        const auto b = std::min<std::uint32_t>(
-            bins - 1, static_cast<std::uint32_t>(std::max(0.0, (alpha + kPi) / alpha_step)));
-        ++votes[static_cast<std::size_t>(model.refs[e]) * bins + b];
-      }
-    }
-    auto& top = peaks[j];  // descending by votes; ties keep the lower cell
-    for (std::size_t c = 0; c < cells; ++c) {
-      if (votes[c] <= top.back().votes) continue;
-      std::size_t at = kPeaksPerReference - 1;
-      while (at > 0 && votes[c] > top[at - 1].votes) {
-        top[at] = top[at - 1];
-        --at;
-      }
-      top[at] = {votes[c], static_cast<std::uint32_t>(c)};
-    }
-  });
-
-  // Poses of the peaks: T_model_scene = T_m⁻¹ · R_x(α_s − α_m) · T_s, with α at the bin centre.
-  std::vector<Candidate> candidates;
-  for (std::size_t j = 0; j < references; ++j) {
-    const std::size_t r = j * kSceneReferenceStep;
-    const Eigen::Isometry3d T_s = to_x_axis(down.positions[r], down.normals[r]);
-    for (const Peak& peak : peaks[j]) {
-      if (peak.votes == 0) break;
-      const std::size_t m = peak.cell / bins;
-      const double alpha = -kPi + (peak.cell % bins + 0.5) * alpha_step;
-      const Eigen::Isometry3d T_m = to_x_axis(model.points.positions[m], model.points.normals[m]);
-      candidates.push_back(
-          {T_m.inverse() * Eigen::AngleAxisd(-alpha, Eigen::Vector3d::UnitX()) * T_s,
-           static_cast<double>(peak.votes)});
-    }
-  }
+  const std::vector<Candidate> candidates =
+      peak_poses(model, down, vote(model, down, scene_tree, threads));
   if (candidates.empty()) {
     result.message = "ppf: no scene point pair matched a model feature";
-    result.time_ms =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    result.time_ms = elapsed_ms();
     return result;
   }
-  std::stable_sort(candidates.begin(), candidates.end(),
-                   [](const Candidate& a, const Candidate& b) { return a.votes > b.votes; });
-
-  // Pose clustering (Drost, section 3.5): greedy, strongest first; a pose joins the first cluster
-  // whose strongest pose is within 12° and moves the scene centroid to within 2 voxels of it.
-  // Comparing moved centroids, not raw translations, keeps the test independent of the frame.
-  const double cos_half_rotation = std::cos(deg_to_rad(kClusterRotationDeg) / 2);
-  const double cluster_radius = kClusterVoxels * voxel;
-  std::vector<Cluster> clusters;
-  for (const Candidate& cand : candidates) {
-    const Eigen::Quaterniond q(cand.T.linear());
-    const Eigen::Vector3d x = cand.T * scene_centre;
-    Cluster* home = nullptr;
-    for (Cluster& cl : clusters)
-      if ((cl.x_first - x).norm() < cluster_radius &&
-          std::abs(cl.q_first.dot(q)) >= cos_half_rotation) {
-        home = &cl;
-        break;
-      }
-    if (!home) {
-      clusters.push_back({q, x});
-      home = &clusters.back();
-    }
-    const double sign = home->q_first.dot(q) < 0 ? -1.0 : 1.0;
-    home->q_sum += sign * cand.votes * q.coeffs();
-    home->x_sum += cand.votes * x;
-    home->votes += cand.votes;
-  }
-  std::stable_sort(clusters.begin(), clusters.end(),
-                   [](const Cluster& a, const Cluster& b) { return a.votes > b.votes; });
-
-  // Verification: refine the strongest clusters and keep the pose that lays most of the model onto
-  // the scene's surface (surface_fit, global.hpp: nearness alone barely separates a plane slid over
-  // a plane from the true pose; counted on the model's side, because a pose that lays a face of the
-  // model on a wide floor lays many scene points onto the model but few of the model's).
-  const KdTree model_tree(model.points.positions, threads);
-  const std::size_t verified = std::min(kVerifiedClusters, clusters.size());
-  std::vector<Eigen::Isometry3d> poses(verified);
-  std::vector<double> fits(verified);
-  std::size_t best = 0;
-  for (std::size_t c = 0; c < verified; ++c) {
-    const Cluster& cl = clusters[c];
-    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-    T.linear() = Eigen::Quaterniond(Eigen::Vector4d(cl.q_sum.normalized())).toRotationMatrix();
-    T.translation() = cl.x_sum / cl.votes - T.linear() * scene_centre;
-    poses[c] = refine(down, model.points, model_tree, T, voxel, kRefineIterations, threads);
-    fits[c] = surface_fit(model.points, down, scene_tree, poses[c].inverse(), voxel, threads);
-    if (fits[c] > fits[best]) best = c;
-  }
-  poses[best] =
-      refine(down, model.points, model_tree, poses[best], voxel, kFinalIterations, threads);
-  fits[best] = surface_fit(model.points, down, scene_tree, poses[best].inverse(), voxel, threads);
-  result.T_target_source = poses[best];
-  // The model is the object: the overlap is its fit (global.hpp).
-  result.overlap = fits[best];
-  result.score = fits[best];
-  result.votes = clusters[best].votes;
-  result.candidates = verified;
-  result.success = result.overlap >= settings.min_overlap;
-  if (!result.success)
-    result.message = "ppf: the best pose explains only " + percent(result.overlap) +
-                     " of the model's points within 1.5 voxels (minimum " +
-                     percent(settings.min_overlap) + ")";
-
-  // Ambiguity (coarse/global.hpp): the best-fitting distinct runner-up, compared by the same fit.
-  std::size_t second = verified;
-  for (std::size_t c = 0; c < verified; ++c) {
-    if (c == best) continue;
-    const double rotation =
-        rad_to_deg(rotation_angle(poses[c].linear().transpose() * poses[best].linear()));
-    const double shift = (poses[c] * scene_centre - poses[best] * scene_centre).norm();
-    const bool distinct = rotation > settings.distinct_rotation_deg || shift > cluster_radius;
-    if (distinct && (second == verified || fits[c] > fits[second])) second = c;
-  }
-  if (result.success && second < verified &&
-      fits[second] >= settings.ambiguity_ratio * fits[best]) {
-    result.ambiguous = true;
-    result.second_T_target_source = poses[second];
-    result.second_score = fits[second];
-    const std::string note = "ppf: ambiguous: a distinct pose fits " + percent(fits[second]) +
-                             " of the scene to the model surface against " + percent(fits[best]) +
-                             " (a symmetric part?)";
-    result.message = result.message.empty() ? note : result.message + "; " + note;
-  }
-  result.time_ms =
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  const std::vector<Cluster> clusters = cluster_poses(candidates, scene_centre, voxel);
+  const Verified verified =
+      verify_clusters(model, down, scene_tree, scene_centre, clusters, threads);
+  take_winner(verified, clusters, settings, result);
+  note_ambiguity(verified, scene_centre, voxel, settings, result);
+  result.time_ms = elapsed_ms();
   return result;
 }
 
@@ -474,9 +671,6 @@ void save_ppf_model(const std::filesystem::path& path, const PpfModel& model) {
 }
 
 PpfModel load_ppf_model(const std::filesystem::path& path) {
-  auto error = [&](const std::string& what, std::uint64_t offset) {
-    return IoError(path.string() + ": " + what + " at byte offset " + std::to_string(offset));
-  };
   std::ifstream in(path, std::ios::binary);
   if (!in) throw IoError(path.string() + ": cannot open the PPF model file");
   in.seekg(0, std::ios::end);
@@ -484,88 +678,17 @@ PpfModel load_ppf_model(const std::filesystem::path& path) {
   if (end < 0) throw IoError(path.string() + ": cannot determine the file size");
   const auto size = static_cast<std::uint64_t>(end);
   in.seekg(0, std::ios::beg);
-  unsigned char header[kHeaderBytes] = {};
-  const auto head = static_cast<std::size_t>(std::min(size, kHeaderBytes));
-  if (!in.read(reinterpret_cast<char*>(header), static_cast<std::streamsize>(head)))
-    throw error("read failed", 0);
-  // The magic first (over what the file has of it), so a file of another type is named as such.
-  if (std::memcmp(header, kMagic, std::min(head, sizeof kMagic)) != 0 || head < sizeof kMagic)
-    throw error("not an align3d PPF model (wrong magic)", 0);
-  if (size < kHeaderBytes)
-    throw error("truncated header (" + std::to_string(size) + " bytes)", size);
-  if (const std::uint32_t version = get_u32(header + 8); version != kVersion)
-    throw error("unsupported version " + std::to_string(version), 8);
   PpfModel model;
-  model.angle_bins = get_u32(header + 12);
-  if (model.angle_bins < 1 || model.angle_bins > 360)
-    throw error("angle bin count " + std::to_string(model.angle_bins) + " out of range", 12);
-  model.voxel = get_f64(header + 16);
-  if (!(model.voxel > 0) || !std::isfinite(model.voxel)) throw error("voxel not positive", 16);
-  model.diameter = get_f64(header + 24);
-  if (!(model.diameter >= 0) || !std::isfinite(model.diameter))
-    throw error("diameter not finite", 24);
-  const std::uint64_t points = get_u64(header + 32), keys = get_u64(header + 40),
-                      entries = get_u64(header + 48);
-  // Sizes against the file before any allocation; each count is bounded first, so the sum
-  // cannot overflow.
-  const std::uint64_t body = size - kHeaderBytes;
-  if (points > body / kPointBytes || keys > body / (kKeyBytes + kOffsetBytes) ||
-      entries > body / kEntryBytes ||
-      kHeaderBytes + points * kPointBytes + keys * (kKeyBytes + kOffsetBytes) + kOffsetBytes +
-              entries * kEntryBytes !=
-          size)
-    throw error("the header's counts (" + std::to_string(points) + " points, " +
-                    std::to_string(keys) + " keys, " + std::to_string(entries) +
-                    " entries) do not match the file size of " + std::to_string(size) + " bytes",
-                32);
-  if (points < kMinPoints) throw error("fewer than 10 model points", 32);
-  if (entries > std::numeric_limits<std::uint32_t>::max()) throw error("too many entries", 48);
-  std::vector<unsigned char> data(body);
-  if (!in.read(reinterpret_cast<char*>(data.data()), static_cast<std::streamsize>(body)))
-    throw error("read failed (file changed?)", kHeaderBytes);
-  const unsigned char* at = data.data();
-  auto offset = [&](const unsigned char* p) {
-    return kHeaderBytes + static_cast<std::uint64_t>(p - data.data());
-  };
+  const TableCounts counts = read_header(in, size, path, model);
+  std::vector<unsigned char> data(size - kHeaderBytes);
+  if (!in.read(reinterpret_cast<char*>(data.data()), static_cast<std::streamsize>(data.size())))
+    throw format_error(path, "read failed (file changed?)", kHeaderBytes);
 
-  model.points.positions.resize(points);
-  model.points.normals.resize(points);
-  for (std::uint64_t i = 0; i < points; ++i, at += kPointBytes) {
-    Eigen::Vector3d p, n;
-    for (int a = 0; a < 3; ++a) p(a) = get_f64(at + 8 * a), n(a) = get_f64(at + 24 + 8 * a);
-    if (!p.allFinite()) throw error("point " + std::to_string(i) + " is not finite", offset(at));
-    if (!n.allFinite() || std::abs(n.norm() - 1) > 1e-6)
-      throw error("normal " + std::to_string(i) + " is not a unit vector", offset(at + 24));
-    model.points.positions[i] = p;
-    model.points.normals[i] = n;
-  }
-  model.keys.resize(keys);
-  for (std::uint64_t k = 0; k < keys; ++k, at += kKeyBytes) {
-    model.keys[k] = get_u64(at);
-    if (k > 0 && model.keys[k] <= model.keys[k - 1])
-      throw error("feature keys not strictly increasing", offset(at));
-  }
-  model.offsets.resize(keys + 1);
-  for (std::uint64_t k = 0; k <= keys; ++k, at += kOffsetBytes) {
-    model.offsets[k] = get_u32(at);
-    const bool ok = k == 0 ? model.offsets[k] == 0
-                           : model.offsets[k] > model.offsets[k - 1] &&
-                                 (k < keys || model.offsets[k] == entries);
-    if (!ok) throw error("bucket offset " + std::to_string(k) + " is inconsistent", offset(at));
-  }
-  if (keys == 0 && entries != 0) throw error("entries without keys", 48);
-  model.refs.resize(entries);
-  model.alphas.resize(entries);
-  for (std::uint64_t e = 0; e < entries; ++e, at += kEntryBytes) {
-    model.refs[e] = get_u32(at);
-    model.alphas[e] = get_f32(at + 4);
-    if (model.refs[e] >= points)
-      throw error("entry " + std::to_string(e) + " names point " + std::to_string(model.refs[e]) +
-                      " of " + std::to_string(points),
-                  offset(at));
-    if (!(std::abs(model.alphas[e]) <= kPi + 1e-5))
-      throw error("entry " + std::to_string(e) + " has an angle outside [-pi, pi]", offset(at + 4));
-  }
+  BodyReader body{path, data.data(), data.data()};
+  read_points(body, counts.points, model);
+  read_buckets(body, counts, model);
+  if (counts.keys == 0 && counts.entries != 0) throw format_error(path, "entries without keys", 48);
+  read_entries(body, counts, model);
   return model;
 }
 

@@ -49,6 +49,11 @@ constexpr int kRefineRounds = 3;
 constexpr std::size_t kMinInliers = 9;  // 3 × the minimal sample
 constexpr double kTwinSupport = 0.5;    // ambiguity: own inliers of the runner-up / winner's
 
+// Squared inlier / distance-checker radius for a voxel.
+double sq_inlier_radius(double voxel) {
+  return (kInlierDistance * voxel) * (kInlierDistance * voxel);
+}
+
 // The stream of hypothesis k: independent of which thread evaluates it.
 class HypothesisStream {
  public:
@@ -310,7 +315,7 @@ void remember(std::vector<Pose>& poses, const Pose& pose, const Distinct& distin
 // (remember), counts the accepted hypotheses in `candidates` and the drawn ones in `drawn`.
 std::vector<Pose> ransac(const Correspondences& corr, const GlobalSettings& settings, double voxel,
                          const Distinct& distinct, std::size_t& candidates, std::uint64_t& drawn) {
-  const double sq_radius = (kInlierDistance * voxel) * (kInlierDistance * voxel);
+  const double sq_radius = sq_inlier_radius(voxel);
   const auto max_iterations = static_cast<std::uint64_t>(std::max(0, settings.ransac_iterations));
   std::uint64_t needed = max_iterations;
   std::vector<Pose> poses;
@@ -339,6 +344,84 @@ std::vector<Pose> ransac(const Correspondences& corr, const GlobalSettings& sett
   return poses;
 }
 
+// Throws DataError unless both clouds hold the 10 points FPFH registration needs at least.
+void check_sizes(const PointCloud& source, const PointCloud& target) {
+  for (const auto& [cloud, role] :
+       {std::pair{&source, Role::kSource}, std::pair{&target, Role::kTarget}})
+    if (cloud->size() < 10)
+      throw DataError(to_string(role), std::to_string(cloud->size()) +
+                                           " points; FPFH registration needs at least 10");
+}
+
+// Step 6: refine every remembered pose (a 3-point estimate ranks poses only roughly), measure how
+// much of the object each lays onto the other cloud's surface, and sort them best fit first:
+// inlier counts rank poses of a box-like part poorly (its flat faces give many alike descriptors,
+// and a pose that slides one face onto another gathers as many inliers as the truth), the fit
+// does not. The overlap is a share of the object's points (global.hpp): the source's on the
+// target's surface, or the target's on the moved source's.
+void refine_and_rank(std::vector<Pose>& poses, const Correspondences& corr, const Prepared& src,
+                     const Prepared& tgt, Role object, double voxel, int threads) {
+  const double sq_radius = sq_inlier_radius(voxel);
+  for (Pose& pose : poses) {
+    pose = refine(corr, pose, sq_radius);
+    pose.fit = object == Role::kSource
+                   ? surface_fit(src.down, tgt.down, *tgt.tree, pose.T, voxel, threads)
+                   : surface_fit(tgt.down, src.down, *src.tree, pose.T.inverse(), voxel, threads);
+  }
+  std::sort(poses.begin(), poses.end(), [](const Pose& a, const Pose& b) {
+    return a.fit != b.fit ? a.fit > b.fit : better(a, b);
+  });
+}
+
+// Step 7: the result succeeds when the winner's overlap and inlier count reach their minimums;
+// otherwise its message says which fell short.
+void judge_success(const Pose& best, const GlobalSettings& settings, GlobalResult& result) {
+  if (result.overlap < settings.min_overlap) {
+    result.message = "no pose with enough support: best overlap " + fixed(result.overlap) + " < " +
+                     fixed(settings.min_overlap);
+  } else if (best.score < kMinInliers) {
+    result.message = "no pose with enough support: " + std::to_string(best.score) +
+                     " inlier correspondences < " + std::to_string(kMinInliers);
+  } else {
+    result.success = true;
+  }
+}
+
+// Step 8: the refined poses distinct from the winner (poses[0]), best fit first; the first that
+// explains the geometry about as well (overlap within ambiguity_ratio of the winner's) with its own
+// evidence (at least half the winner's inlier count among correspondences that are not inliers of
+// the winner) makes the result ambiguous. The second condition tells a symmetric twin (disjoint
+// support) from a poor estimate of the winner's own basin just past distinct_rotation_deg (shared
+// support); overlap alone cannot tell a twin from a pose that lays only the dominant plane, and
+// raw inlier counts split unevenly between twins (a descriptor matches one of the symmetric
+// copies at random).
+void note_ambiguity(const std::vector<Pose>& poses, const Correspondences& corr,
+                    const Distinct& distinct, double voxel, const GlobalSettings& settings,
+                    GlobalResult& result) {
+  const Pose& best = poses.front();
+  const double sq_radius = sq_inlier_radius(voxel);
+  for (std::size_t i = 1; result.success && i < poses.size(); ++i) {
+    if (!distinct(poses[i].T, best.T)) continue;  // refinement joined the winner
+    const Pose& second = poses[i];
+    const std::size_t own = count_exclusive(corr, second.T, best.T, sq_radius);
+    const double overlap = second.fit;
+    if (overlap >= settings.ambiguity_ratio * result.overlap &&
+        static_cast<double>(own) >= kTwinSupport * result.score && own >= kMinInliers) {
+      result.ambiguous = true;
+      result.second_T_target_source = second.T;
+      result.second_score = static_cast<double>(second.score);
+      const double angle =
+          rad_to_deg(rotation_angle(best.T.linear().transpose() * second.T.linear()));
+      const std::string note = "ambiguous: a pose " + fixed(angle, 1) + " deg away has overlap " +
+                               fixed(overlap) + " (best " + fixed(result.overlap) + ") and " +
+                               std::to_string(second.score) + " inliers (best " +
+                               std::to_string(best.score) + ")";
+      result.message = note;
+      break;
+    }
+  }
+}
+
 }  // namespace
 
 GlobalResult fpfh_ransac_register(const PointCloud& source, const PointCloud& target,
@@ -346,11 +429,7 @@ GlobalResult fpfh_ransac_register(const PointCloud& source, const PointCloud& ta
   const auto start = std::chrono::steady_clock::now();
   GlobalResult result;
   result.method = GlobalMethod::kFpfh;
-  for (const auto& [cloud, role] :
-       {std::pair{&source, Role::kSource}, std::pair{&target, Role::kTarget}})
-    if (cloud->size() < 10)
-      throw DataError(to_string(role), std::to_string(cloud->size()) +
-                                           " points; FPFH registration needs at least 10");
+  check_sizes(source, target);
   const double voxel = global_voxel(source, target, settings);
   result.object = object_role(source, target);
   if (!(voxel > 0) || !std::isfinite(voxel))
@@ -362,17 +441,9 @@ GlobalResult fpfh_ransac_register(const PointCloud& source, const PointCloud& ta
   // Steps 1-3: downsample, normals, descriptors.
   const Prepared src = prepare(source, voxel, "source", threads);
   const Prepared tgt = prepare(target, voxel, "target", threads);
-  // The overlap is a share of the object's points (global.hpp): the source's on the target's
-  // surface, or the target's on the moved source's.
-  const auto object_overlap = [&](const Eigen::Isometry3d& T) {
-    return result.object == Role::kSource
-               ? surface_fit(src.down, tgt.down, *tgt.tree, T, voxel, threads)
-               : surface_fit(tgt.down, src.down, *src.tree, T.inverse(), voxel, threads);
-  };
   // Step 4: descriptor nearest neighbours.
   const Correspondences corr = match(src, tgt, result.object, settings.mutual_filter, threads);
 
-  const double sq_radius = (kInlierDistance * voxel) * (kInlierDistance * voxel);
   const Distinct distinct{deg_to_rad(settings.distinct_rotation_deg),
                           (kDistinctTranslation * voxel) * (kDistinctTranslation * voxel),
                           centroid(src.down)};
@@ -395,61 +466,13 @@ GlobalResult fpfh_ransac_register(const PointCloud& source, const PointCloud& ta
     return finish(result);
   }
 
-  // Step 6: refine every remembered pose (a 3-point estimate ranks poses only roughly), measure how
-  // much of the object each lays onto the other cloud's surface, and keep the best fit: inlier
-  // counts rank poses of a box-like part poorly (its flat faces give many alike descriptors, and a
-  // pose that slides one face onto another gathers as many inliers as the truth), the fit does not.
-  for (Pose& pose : poses) {
-    pose = refine(corr, pose, sq_radius);
-    pose.fit = object_overlap(pose.T);
-  }
-  std::sort(poses.begin(), poses.end(), [](const Pose& a, const Pose& b) {
-    return a.fit != b.fit ? a.fit > b.fit : better(a, b);
-  });
-  const Pose best = poses.front();
+  refine_and_rank(poses, corr, src, tgt, result.object, voxel, threads);
+  const Pose& best = poses.front();
   result.T_target_source = best.T;
   result.score = static_cast<double>(best.score);
   result.overlap = best.fit;
-
-  // Step 7: success.
-  if (result.overlap < settings.min_overlap) {
-    result.message = "no pose with enough support: best overlap " + fixed(result.overlap) + " < " +
-                     fixed(settings.min_overlap);
-  } else if (best.score < kMinInliers) {
-    result.message = "no pose with enough support: " + std::to_string(best.score) +
-                     " inlier correspondences < " + std::to_string(kMinInliers);
-  } else {
-    result.success = true;
-  }
-
-  // Step 8: the refined poses distinct from the winner, best fit first; the first that explains the
-  // geometry about as well (overlap within ambiguity_ratio of the winner's) with its own evidence
-  // (at least half the winner's inlier count among correspondences that are not inliers of the
-  // winner) makes the result ambiguous. The second condition tells a symmetric twin (disjoint
-  // support) from a poor estimate of the winner's own basin just past distinct_rotation_deg (shared
-  // support); overlap alone cannot tell a twin from a pose that lays only the dominant plane, and
-  // raw inlier counts split unevenly between twins (a descriptor matches one of the symmetric
-  // copies at random).
-  for (std::size_t i = 1; result.success && i < poses.size(); ++i) {
-    if (!distinct(poses[i].T, best.T)) continue;  // refinement joined the winner
-    const Pose& second = poses[i];
-    const std::size_t own = count_exclusive(corr, second.T, best.T, sq_radius);
-    const double overlap = second.fit;
-    if (overlap >= settings.ambiguity_ratio * result.overlap &&
-        static_cast<double>(own) >= kTwinSupport * result.score && own >= kMinInliers) {
-      result.ambiguous = true;
-      result.second_T_target_source = second.T;
-      result.second_score = static_cast<double>(second.score);
-      const double angle =
-          rad_to_deg(rotation_angle(best.T.linear().transpose() * second.T.linear()));
-      const std::string note = "ambiguous: a pose " + fixed(angle, 1) + " deg away has overlap " +
-                               fixed(overlap) + " (best " + fixed(result.overlap) + ") and " +
-                               std::to_string(second.score) + " inliers (best " +
-                               std::to_string(best.score) + ")";
-      result.message = note;
-      break;
-    }
-  }
+  judge_success(best, settings, result);
+  note_ambiguity(poses, corr, distinct, voxel, settings, result);
   return finish(result);
 }
 
