@@ -7,6 +7,7 @@
 
 #include "align3d/cloud_stats.hpp"
 #include "align3d/error.hpp"
+#include "detail/target_side.hpp"
 
 namespace align3d {
 namespace {
@@ -89,8 +90,8 @@ bool clearly_better(const AlignCandidate& b, const AlignCandidate& a, bool a_fai
 }
 
 // Is ICP run the other way round (align.hpp)?
-bool reverse_icp(const PointCloud& source, const PointCloud& target) {
-  return robust_extent(target) > kReverseExtentRatio * robust_extent(source);
+bool reverse_icp(const CloudScale& source, const CloudScale& target) {
+  return target.extent > kReverseExtentRatio * source.extent;
 }
 
 // Two answers are distinct poses when they differ by more than the global stage's distinctness
@@ -105,12 +106,15 @@ bool distinct(const AlignCandidate& a, const AlignCandidate& b, const PointCloud
 
 class Pipeline {
  public:
-  Pipeline(const PointCloud& source, const PointCloud& target, const AlignSettings& s)
-      : source_((check_registrable(source, "source"), source)),
-        target_cloud_((check_registrable(target, "target"), target)),
+  Pipeline(const PointCloud& source, detail::TargetSide& target, const AlignSettings& s)
+      : source_(source),
+        target_(target),
         s_(s),
-        reversed_(reverse_icp(source, target)),
-        fixed_(reversed_ ? source : target, s.refine.normals, s.threads) {
+        source_tree_(source.positions, s.threads),
+        source_scale_(measure_scale(source, source_tree_)),
+        reversed_(reverse_icp(source_scale_, target.scale)) {
+    if (reversed_)
+      source_fixed_ = std::make_unique<RefineTarget>(source, s.refine.normals, s.threads);
     refine_ = s.refine;
     refine_.threads = s.threads;
     global_ = s.global;
@@ -135,10 +139,13 @@ class Pipeline {
   void keep(const AlignCandidate& c, RefineResult r);
 
   const PointCloud& source_;
-  const PointCloud& target_cloud_;
+  detail::TargetSide&
+      target_;  // the target in spatial order, its scale, tree, normals, descriptors
   const AlignSettings& s_;
-  bool reversed_;       // ICP moves the target onto the source (align.hpp)
-  RefineTarget fixed_;  // the cloud ICP moves onto: the target, or the source when reversed
+  KdTree source_tree_;
+  CloudScale source_scale_;
+  bool reversed_;  // ICP moves the target onto the source (align.hpp) ...
+  std::unique_ptr<RefineTarget> source_fixed_;  // ... prepared here
   RefineSettings refine_;
   GlobalSettings global_;
   std::unique_ptr<SupportMeter> meter_;
@@ -150,16 +157,15 @@ AlignCandidate Pipeline::refine_from(const Eigen::Isometry3d& init, const std::s
                                      RefineResult& r) {
   step("icp from the " + (path == "initial" ? std::string("initial") : path) + " pose");
   auto start = Clock::now();
-  r = reversed_ ? refine(target_cloud_, fixed_, init.inverse(), refine_)
-                : refine(source_, fixed_, init, refine_);
+  r = reversed_ ? refine(target_.refine.cloud(), *source_fixed_, init.inverse(), refine_)
+                : refine(source_, target_.refine, init, refine_);
   const Eigen::Isometry3d T = reversed_ ? r.icp.T_target_source.inverse() : r.icp.T_target_source;
   out_.timings.refine_ms += ms_since(start);
   start = Clock::now();
   if (!meter_)
-    meter_ = reversed_ ? std::make_unique<SupportMeter>(fixed_.cloud(), target_cloud_, s_.threads,
-                                                        &fixed_.tree(), nullptr)
-                       : std::make_unique<SupportMeter>(source_, fixed_.cloud(), s_.threads,
-                                                        nullptr, &fixed_.tree());
+    meter_ =
+        std::make_unique<SupportMeter>(source_, target_.refine.cloud(), s_.threads, &source_tree_,
+                                       &target_.refine.tree(), &source_scale_, &target_.scale);
   AlignCandidate c{path, T, meter_->measure(T), r.icp.rms};
   c.weak = !weaknesses(r, c.support).empty();
   out_.timings.support_ms += ms_since(start);
@@ -179,7 +185,8 @@ GlobalResult Pipeline::run_global() {
     }
     g.object = Role::kTarget;
   } else {
-    g = global_register(source_, target_cloud_, global_);
+    g = global_register(source_, target_.refine.cloud(), global_,
+                        {&source_scale_, &target_.scale, &target_.global});
   }
   g.time_ms = ms_since(start);
   out_.timings.global_ms += g.time_ms;
@@ -296,7 +303,21 @@ const char* to_string(InitPolicy p) {
 
 AlignResult align(const PointCloud& source, const PointCloud& target,
                   const AlignSettings& settings) {
-  Pipeline pipeline(source, target, settings);
+  check_registrable(source, "source");  // the source's problems are named first
+  detail::TargetSide side(target, settings.refine.normals, settings.threads, false);
+  Pipeline pipeline(source, side, settings);
+  return pipeline.run();
+}
+
+AlignResult align(const PointCloud& source, const PreparedTarget& target,
+                  const AlignSettings& settings) {
+  check_registrable(source, "source");
+  detail::TargetSide& side = detail::TargetSide::of(target);
+  if (!side.refine.cloud().has_normals() && settings.refine.normals.k != side.refine.normal_k())
+    throw std::invalid_argument(
+        "align: the target was prepared with normal k = " + std::to_string(side.refine.normal_k()) +
+        ", the settings ask for " + std::to_string(settings.refine.normals.k));
+  Pipeline pipeline(source, side, settings);
   return pipeline.run();
 }
 

@@ -98,6 +98,10 @@ double robust_extent(const PointCloud& cloud) {
   return (high - low).norm();
 }
 
+CloudScale measure_scale(const PointCloud& cloud, const KdTree& tree) {
+  return {robust_extent(cloud), point_spacing(cloud, tree), surface_noise(cloud, tree)};
+}
+
 void check_registrable(const PointCloud& cloud, const std::string& what) {
   if (cloud.size() < 6)
     throw DataError(what, std::to_string(cloud.size()) + " points; registration needs at least 6");

@@ -85,6 +85,7 @@ void NormalCache::require(const std::vector<std::uint32_t>& indices) {
     state_[i] = kDefined;  // settled below
     pending.push_back(i);
   }
+  if (pending.empty()) return;  // nothing written: concurrent readers of a complete cache are safe
   // Each item writes only its own point's normal and state.
   parallel_for(pending.size(), settings_.threads, [&](std::size_t k) {
     thread_local std::vector<Neighbor> nb;

@@ -32,18 +32,18 @@ const KdTree* tree_for(const PointCloud& cloud, const KdTree* given, std::unique
 }  // namespace
 
 SupportMeter::SupportMeter(const PointCloud& source, const PointCloud& target, int threads,
-                           const KdTree* source_tree, const KdTree* target_tree)
+                           const KdTree* source_tree, const KdTree* target_tree,
+                           const CloudScale* source_scale, const CloudScale* target_scale)
     : source_(source), target_(target), threads_(threads) {
   source_tree_ = tree_for(source, source_tree, own_source_tree_, threads);
   target_tree_ = tree_for(target, target_tree, own_target_tree_, threads);
-  const double noise_s = surface_noise(source, *source_tree_);
-  const double noise_t = surface_noise(target, *target_tree_);
-  base_.noise = std::sqrt(noise_s * noise_s + noise_t * noise_t);
-  base_.spacing =
-      std::max(point_spacing(source, *source_tree_), point_spacing(target, *target_tree_));
+  const CloudScale s = source_scale ? *source_scale : measure_scale(source, *source_tree_);
+  const CloudScale t = target_scale ? *target_scale : measure_scale(target, *target_tree_);
+  base_.noise = std::sqrt(s.noise * s.noise + t.noise * t.noise);
+  base_.spacing = std::max(s.spacing, t.spacing);
   base_.reach = kReachSpacings * base_.spacing + kReachSigmas * base_.noise;
   base_.band = std::max(kBandSigmas * base_.noise, kBandSpacings * base_.spacing);
-  base_.object = object_role(source, target);
+  base_.object = object_role(s, t);
   const bool source_object = base_.object == Role::kSource;
   NormalSettings ns;
   ns.threads = threads;

@@ -42,6 +42,7 @@
 #include "align3d/coarse/ppf.hpp"
 #include "align3d/icp/refine.hpp"
 #include "align3d/point_cloud.hpp"
+#include "align3d/prepared_target.hpp"
 #include "align3d/progress.hpp"
 #include "align3d/support.hpp"
 #include "align3d/warning.hpp"
@@ -110,6 +111,11 @@ struct AlignResult {
 // Throws DataError("source"/"target", …) for clouds that cannot be registered (too few points, all
 // on a line; refine.hpp, global.hpp) and std::invalid_argument for inconsistent settings.
 AlignResult align(const PointCloud& source, const PointCloud& target,
+                  const AlignSettings& settings = {});
+// The same against a target prepared once for many sources (prepared_target.hpp): the same pose,
+// to the bit. Throws std::invalid_argument when settings.refine.normals.k differs from the
+// target's preparation.
+AlignResult align(const PointCloud& source, const PreparedTarget& target,
                   const AlignSettings& settings = {});
 
 }  // namespace align3d

@@ -31,6 +31,16 @@ double surface_noise(const PointCloud& cloud, const KdTree& tree, int k = 20,
 // the cloud turns. 0 for an empty cloud.
 double robust_extent(const PointCloud& cloud);
 
+// The three measures of one cloud, taken once per registration and passed down (align.hpp keeps
+// the target's across calls: PreparedTarget).
+struct CloudScale {
+  double extent = 0;   // robust_extent
+  double spacing = 0;  // point_spacing
+  double noise = 0;    // surface_noise
+};
+// `tree` indexes the cloud.
+CloudScale measure_scale(const PointCloud& cloud, const KdTree& tree);
+
 // Throws DataError(what, …) when the cloud has fewer than 6 points, all at one spot, or all on one
 // line.
 void check_registrable(const PointCloud& cloud, const std::string& what);

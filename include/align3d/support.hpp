@@ -17,6 +17,7 @@
 #include <Eigen/Geometry>
 #include <memory>
 
+#include "align3d/cloud_stats.hpp"
 #include "align3d/coarse/global.hpp"
 #include "align3d/kdtree.hpp"
 #include "align3d/normals.hpp"
@@ -33,13 +34,15 @@ struct Support {
 };
 
 // Prepared once for a pair of clouds (the noise, the spacings, their kd-trees), then measures any
-// number of poses. A tree the caller already has may be passed (it must index that cloud); the
-// others are built. Lifetime: keeps references to the clouds and the given trees, which must
-// outlive it. Thread-safety: one measure() at a time (it estimates normals on demand).
+// number of poses. A tree or a scale (measure_scale) the caller already has may be passed (it must
+// be of that cloud); the others are built or measured. Lifetime: keeps references to the clouds
+// and the given trees, which must outlive it. Thread-safety: one measure() at a time (it estimates
+// normals on demand).
 class SupportMeter {
  public:
   SupportMeter(const PointCloud& source, const PointCloud& target, int threads = 0,
-               const KdTree* source_tree = nullptr, const KdTree* target_tree = nullptr);
+               const KdTree* source_tree = nullptr, const KdTree* target_tree = nullptr,
+               const CloudScale* source_scale = nullptr, const CloudScale* target_scale = nullptr);
   ~SupportMeter();
   SupportMeter(const SupportMeter&) = delete;
   SupportMeter& operator=(const SupportMeter&) = delete;

@@ -9,10 +9,12 @@
 #include <cstring>
 #include <fstream>
 #include <limits>
+#include <memory>
 #include <numbers>
 #include <stdexcept>
 #include <string>
 
+#include "align3d/coarse/target_cache.hpp"
 #include "align3d/coarse/voxel.hpp"
 #include "align3d/error.hpp"
 #include "align3d/icp/icp.hpp"
@@ -601,12 +603,14 @@ GlobalResult ppf_match(const PpfModel& model, const PointCloud& scene,
 }
 
 GlobalResult ppf_register(const PointCloud& source, const PointCloud& target,
-                          const GlobalSettings& settings) {
+                          const GlobalSettings& settings, const GlobalContext& context) {
   const auto start = std::chrono::steady_clock::now();
   // The model description is built from the object (global.hpp), the other cloud is the scene.
-  const Role object = object_role(source, target);
+  const CloudScale source_scale = GlobalContext::scale_of(source, context.source, settings.threads);
+  const CloudScale target_scale = GlobalContext::scale_of(target, context.target, settings.threads);
+  const Role object = object_role(source_scale, target_scale);
   const bool source_is_object = object == Role::kSource;
-  const double voxel = global_voxel(source, target, settings);
+  const double voxel = global_voxel(source_scale, target_scale, settings);
   if (!(voxel > 0) || !std::isfinite(voxel))
     throw DataError(to_string(object),
                     "all points are at one spot (no length scale for the voxel)");
@@ -617,9 +621,13 @@ GlobalResult ppf_register(const PointCloud& source, const PointCloud& target,
       throw DataError(role, e.problem());
     }
   };
-  const PpfModel model = role_named(to_string(object), [&] {
-    return build_ppf_model(source_is_object ? source : target, voxel, settings.threads);
+  const std::shared_ptr<const PpfModel> kept = role_named(to_string(object), [&] {
+    if (!source_is_object && context.target_cache)
+      return context.target_cache->ppf_model(voxel, settings.threads);
+    return std::make_shared<const PpfModel>(
+        build_ppf_model(source_is_object ? source : target, voxel, settings.threads));
   });
+  const PpfModel& model = *kept;
   GlobalResult result = role_named(source_is_object ? "target" : "source", [&] {
     return ppf_match(model, source_is_object ? target : source, settings);
   });

@@ -24,6 +24,7 @@
 
 #include "align3d/cloud_stats.hpp"
 #include "align3d/coarse/fpfh.hpp"
+#include "align3d/coarse/target_cache.hpp"
 #include "align3d/coarse/voxel.hpp"
 #include "align3d/error.hpp"
 #include "align3d/kabsch.hpp"
@@ -67,12 +68,6 @@ class HypothesisStream {
   std::uint64_t state_;
 };
 
-struct Prepared {
-  PointCloud down;  // downsampled, isolated points dropped: what descriptors are computed on
-  std::unique_ptr<KdTree> tree;
-  std::vector<FpfhDescriptor> features;
-};
-
 std::string fixed(double value, int digits = 2) {
   char buffer[64];
   std::snprintf(buffer, sizeof buffer, "%.*f", digits, value);
@@ -98,8 +93,12 @@ PointCloud drop_isolated(const PointCloud& down, double voxel, int threads) {
   return out;
 }
 
-Prepared prepare(const PointCloud& cloud, double voxel, const char* what, int threads) {
-  Prepared out;
+}  // namespace
+
+std::shared_ptr<const FpfhCloud> prepare_fpfh(const PointCloud& cloud, double voxel,
+                                              const char* what, int threads) {
+  auto made = std::make_shared<FpfhCloud>();
+  FpfhCloud& out = *made;
   out.down = drop_isolated(voxel_downsample(cloud, voxel), voxel, threads);
   const std::string after = " after downsampling to voxel " + fixed(voxel, 4) +
                             " and dropping isolated points; FPFH registration needs at least 10 "
@@ -121,8 +120,10 @@ Prepared prepare(const PointCloud& cloud, double voxel, const char* what, int th
       radius_neighbourhoods(out.down, *out.tree, fs.radius, fs.max_neighbors, threads);
   orient_normals_consistently(out.down, nb, threads);
   out.features = compute_fpfh(out.down, nb, threads);
-  return out;
+  return made;
 }
+
+namespace {
 
 // Nearest descriptor in 33-D (nanoflann over the float descriptors).
 class FeatureIndex {
@@ -165,10 +166,10 @@ struct Correspondences {
 // the other cloud. Matching from the object keeps the correspondences about as many as the
 // object's points and their inlier share about its visible share; matched the other way, a wide
 // scene's thousands of clutter points would bury the few that lie on the object.
-Correspondences match(const Prepared& source, const Prepared& target, Role object, bool mutual,
+Correspondences match(const FpfhCloud& source, const FpfhCloud& target, Role object, bool mutual,
                       int threads) {
-  const Prepared& from = object == Role::kSource ? source : target;
-  const Prepared& to = object == Role::kSource ? target : source;
+  const FpfhCloud& from = object == Role::kSource ? source : target;
+  const FpfhCloud& to = object == Role::kSource ? target : source;
   const FeatureIndex to_index(to.features);
   std::vector<std::uint32_t> forward(from.features.size());
   parallel_for(forward.size(), threads,
@@ -359,8 +360,8 @@ void check_sizes(const PointCloud& source, const PointCloud& target) {
 // and a pose that slides one face onto another gathers as many inliers as the truth), the fit
 // does not. The overlap is a share of the object's points (global.hpp): the source's on the
 // target's surface, or the target's on the moved source's.
-void refine_and_rank(std::vector<Pose>& poses, const Correspondences& corr, const Prepared& src,
-                     const Prepared& tgt, Role object, double voxel, int threads) {
+void refine_and_rank(std::vector<Pose>& poses, const Correspondences& corr, const FpfhCloud& src,
+                     const FpfhCloud& tgt, Role object, double voxel, int threads) {
   const double sq_radius = sq_inlier_radius(voxel);
   for (Pose& pose : poses) {
     pose = refine(corr, pose, sq_radius);
@@ -425,13 +426,15 @@ void note_ambiguity(const std::vector<Pose>& poses, const Correspondences& corr,
 }  // namespace
 
 GlobalResult fpfh_ransac_register(const PointCloud& source, const PointCloud& target,
-                                  const GlobalSettings& settings) {
+                                  const GlobalSettings& settings, const GlobalContext& context) {
   const auto start = std::chrono::steady_clock::now();
   GlobalResult result;
   result.method = GlobalMethod::kFpfh;
   check_sizes(source, target);
-  const double voxel = global_voxel(source, target, settings);
-  result.object = object_role(source, target);
+  const CloudScale source_scale = GlobalContext::scale_of(source, context.source, settings.threads);
+  const CloudScale target_scale = GlobalContext::scale_of(target, context.target, settings.threads);
+  const double voxel = global_voxel(source_scale, target_scale, settings);
+  result.object = object_role(source_scale, target_scale);
   if (!(voxel > 0) || !std::isfinite(voxel))
     throw DataError(to_string(result.object),
                     "all points are at one spot (no length scale for the voxel)");
@@ -439,8 +442,10 @@ GlobalResult fpfh_ransac_register(const PointCloud& source, const PointCloud& ta
   const int threads = settings.threads;
 
   // Steps 1-3: downsample, normals, descriptors.
-  const Prepared src = prepare(source, voxel, "source", threads);
-  const Prepared tgt = prepare(target, voxel, "target", threads);
+  const auto src_ptr = prepare_fpfh(source, voxel, "source", threads);
+  const auto tgt_ptr = context.target_cache ? context.target_cache->fpfh(voxel, threads)
+                                            : prepare_fpfh(target, voxel, "target", threads);
+  const FpfhCloud &src = *src_ptr, &tgt = *tgt_ptr;
   // Step 4: descriptor nearest neighbours.
   const Correspondences corr = match(src, tgt, result.object, settings.mutual_filter, threads);
 

@@ -25,6 +25,27 @@ constexpr double kFitReachVoxels = 1.5;
 constexpr double kFitPlaneVoxels = 0.25;
 constexpr double kFitNormalDeg = 20;
 
+Role object_role(const CloudScale& source, const CloudScale& target) {
+  return source.extent < target.extent ? Role::kSource : Role::kTarget;
+}
+
+double global_voxel(const CloudScale& source, const CloudScale& target,
+                    const GlobalSettings& settings) {
+  if (settings.voxel > 0) return settings.voxel;
+  const double spacing = std::max(source.spacing, target.spacing);
+  const double extent = std::min(source.extent, target.extent);
+  return std::max(extent / kVoxelsPerExtent,
+                  std::min(kMinVoxelSpacings * spacing, extent / kMaxVoxelsPerExtent));
+}
+
+CloudScale GlobalContext::scale_of(const PointCloud& cloud, const CloudScale* known, int threads) {
+  if (known) return *known;
+  CloudScale s;
+  s.extent = robust_extent(cloud);
+  if (!cloud.empty()) s.spacing = point_spacing(cloud, KdTree(cloud.positions, threads));
+  return s;
+}
+
 Role object_role(const PointCloud& source, const PointCloud& target) {
   return robust_extent(source) < robust_extent(target) ? Role::kSource : Role::kTarget;
 }
@@ -32,14 +53,8 @@ Role object_role(const PointCloud& source, const PointCloud& target) {
 double global_voxel(const PointCloud& source, const PointCloud& target,
                     const GlobalSettings& settings) {
   if (settings.voxel > 0) return settings.voxel;
-  double spacing = 0;
-  for (const PointCloud* cloud : {&source, &target})
-    if (!cloud->empty())
-      spacing =
-          std::max(spacing, point_spacing(*cloud, KdTree(cloud->positions, settings.threads)));
-  const double extent = std::min(robust_extent(source), robust_extent(target));
-  return std::max(extent / kVoxelsPerExtent,
-                  std::min(kMinVoxelSpacings * spacing, extent / kMaxVoxelsPerExtent));
+  return global_voxel(GlobalContext::scale_of(source, nullptr, settings.threads),
+                      GlobalContext::scale_of(target, nullptr, settings.threads), settings);
 }
 
 double surface_fit(const PointCloud& cloud, const PointCloud& other, const KdTree& other_tree,

@@ -81,6 +81,16 @@ const std::vector<Eigen::Vector3d>& RefineTarget::normals(
   return cache_->normals();
 }
 
+void RefineTarget::estimate_all_normals() {
+  if (cache_) {
+    std::vector<std::uint32_t> all(cloud_.size());
+    for (std::size_t i = 0; i < all.size(); ++i) all[i] = static_cast<std::uint32_t>(i);
+    cache_->require(all);
+  }
+  spacing();
+  extent();
+}
+
 double RefineTarget::extent() {
   if (extent_ < 0) extent_ = robust_extent(cloud_);
   return extent_;

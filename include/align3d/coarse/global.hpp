@@ -26,6 +26,7 @@
 #include <cstdint>
 #include <string>
 
+#include "align3d/cloud_stats.hpp"
 #include "align3d/kdtree.hpp"
 #include "align3d/point_cloud.hpp"
 
@@ -78,10 +79,24 @@ struct GlobalResult {
 };
 
 // The object (the cloud of smaller robust extent) and the voxel in use: settings.voxel, or the rule
-// above.
+// above. From the clouds, or from their scales (cloud_stats.hpp) measured already.
 Role object_role(const PointCloud& source, const PointCloud& target);
 double global_voxel(const PointCloud& source, const PointCloud& target,
                     const GlobalSettings& settings);
+Role object_role(const CloudScale& source, const CloudScale& target);
+double global_voxel(const CloudScale& source, const CloudScale& target,
+                    const GlobalSettings& settings);
+
+class GlobalTargetCache;  // coarse/target_cache.hpp
+
+// What the caller has measured or kept already (align() passes it); every member is optional.
+struct GlobalContext {
+  const CloudScale* source = nullptr;  // measure_scale() of each cloud
+  const CloudScale* target = nullptr;
+  GlobalTargetCache* target_cache = nullptr;  // the target's descriptors, kept across calls
+  // `known`, or the extent and spacing of `cloud` measured here (the noise is not needed).
+  static CloudScale scale_of(const PointCloud& cloud, const CloudScale* known, int threads);
+};
 
 // The share of `cloud` points that T lays onto the surface of `other` (`other_tree` indexes it;
 // both clouds have normals): a point of `other` within 1.5 voxels, the moved point within 0.25
@@ -94,6 +109,7 @@ double surface_fit(const PointCloud& cloud, const PointCloud& other, const KdTre
 // Runs the chosen method. Throws DataError("source"/"target", …) when a cloud is too small or
 // degenerate for descriptors (fewer than 10 points after downsampling, or all points on a line).
 GlobalResult global_register(const PointCloud& source, const PointCloud& target,
-                             const GlobalSettings& settings = {});
+                             const GlobalSettings& settings = {},
+                             const GlobalContext& context = {});
 
 }  // namespace align3d

@@ -83,6 +83,6 @@ GlobalResult ppf_match(const PpfModel& model, const PointCloud& scene,
 // has; the result maps source into target either way. A voxel enlarged by the model's cap is
 // noted in `message`. DataError names the role ("source"/"target") of the cloud at fault.
 GlobalResult ppf_register(const PointCloud& source, const PointCloud& target,
-                          const GlobalSettings& settings);
+                          const GlobalSettings& settings, const GlobalContext& context = {});
 
 }  // namespace align3d

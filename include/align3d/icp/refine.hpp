@@ -49,7 +49,8 @@ struct RefineSettings {
 // the normals and the ICP sums then touch memory in order; a pose does not depend on the order of
 // the points), its kd-tree, and its normals: the file's, or estimated on demand where pairs need
 // them (NormalCache). Lifetime: self-contained (copies the cloud). Not copyable or movable (the
-// cache refers to the copy). Thread-safety: one refinement at a time.
+// cache refers to the copy). Thread-safety: one refinement at a time; any number at once after
+// estimate_all_normals() (everything a refinement reads is then measured: PreparedTarget).
 class RefineTarget {
  public:
   RefineTarget(const PointCloud& target, const NormalSettings& normals = {}, int threads = 0);
@@ -66,6 +67,8 @@ class RefineTarget {
   NormalCache* cache() { return cache_.get(); }  // null when the cloud came with normals
   double spacing();                              // point_spacing(), measured once
   double extent();                               // robust_extent(), measured once
+  // Estimates every normal, the spacing and the extent now (for a target shared by many calls).
+  void estimate_all_normals();
 
  private:
   PointCloud cloud_;

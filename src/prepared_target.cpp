@@ -1,0 +1,26 @@
+#include "align3d/prepared_target.hpp"
+
+#include "detail/target_side.hpp"
+
+namespace align3d {
+namespace detail {
+
+TargetSide::TargetSide(const PointCloud& target, const NormalSettings& normals, int threads,
+                       bool shared)
+    : refine(target, normals, threads),
+      scale{refine.extent(), refine.spacing(), surface_noise(refine.cloud(), refine.tree())},
+      global(refine.cloud()),
+      shared(shared) {
+  if (shared) refine.estimate_all_normals();
+}
+
+}  // namespace detail
+
+PreparedTarget::PreparedTarget(const PointCloud& target, const NormalSettings& normals, int threads)
+    : side_(std::make_shared<detail::TargetSide>(target, normals, threads, true)) {}
+
+const PointCloud& PreparedTarget::cloud() const { return side_->refine.cloud(); }
+
+int PreparedTarget::normal_k() const { return side_->refine.normal_k(); }
+
+}  // namespace align3d
