@@ -12,6 +12,7 @@
 #include "align3d/align.hpp"
 #include "align3d/kdtree.hpp"
 #include "align3d/normals.hpp"
+#include "align3d/se3.hpp"
 #include "align3d/synth/scenes.hpp"
 #include "nanoflann_baseline.hpp"
 
@@ -119,6 +120,33 @@ void Registration(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations() * static_cast<int64_t>(s.scan.size()));
 }
 
+// One scan after another against one model (a line's job): argument 0 prepares the model once
+// (PreparedTarget) or not, argument 1 is the init policy (0 auto, 1 global fpfh). The scans are
+// partial views of 40 000 points turned 30 deg further each time, so auto runs the global stage on
+// some of them.
+void ScanAgainstModel(benchmark::State& state) {
+  static const synth::Scene base = [] {
+    synth::ObjectSettings os;
+    os.shape = "bracket";
+    os.points = 40000;
+    return synth::make_object_scene(os);
+  }();
+  std::vector<PointCloud> scans;
+  for (int k = 0; k < 6; ++k)
+    scans.push_back(transformed(base.scan, rigid_transform(30.0 * k, {1, 2, -0.5}, {3, -1, 2})));
+  AlignSettings settings;
+  settings.init = state.range(1) ? InitPolicy::kGlobal : InitPolicy::kAuto;
+  const bool prepare = state.range(0) != 0;
+  const PreparedTarget model(base.model);
+  std::size_t k = 0;
+  for (auto _ : state) {
+    const PointCloud& scan = scans[k++ % scans.size()];
+    benchmark::DoNotOptimize(prepare ? align(scan, model, settings)
+                                     : align(scan, base.model, settings));
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+
 // 10 million points where it fits: each cloud is ~0.5 GB with normals.
 BENCHMARK_TEMPLATE(KdTreeBuild, KdTree)
     ->ArgsProduct({{10000, 100000, 1000000, 10000000}, {1, 2}})
@@ -152,6 +180,10 @@ BENCHMARK(Normals)->RangeMultiplier(10)->Range(10000, 10000000)->Unit(benchmark:
 BENCHMARK(IcpIteration)
     ->ArgsProduct({{10000, 100000, 1000000, 10000000}, {0, 1}, {1, 2}})
     ->ArgNames({"n", "plane", "threads"})
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK(ScanAgainstModel)
+    ->ArgsProduct({{0, 1}, {0, 1}})
+    ->ArgNames({"prepared", "global"})
     ->Unit(benchmark::kMillisecond);
 BENCHMARK(Registration)->RangeMultiplier(10)->Range(10000, 1000000)->Unit(benchmark::kMillisecond);
 
