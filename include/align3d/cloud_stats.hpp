@@ -31,8 +31,12 @@ double surface_noise(const PointCloud& cloud, const KdTree& tree, int k = 20,
 // the cloud turns. 0 for an empty cloud.
 double robust_extent(const PointCloud& cloud);
 
-// Throws DataError(what, …) when the cloud has fewer than 6 points, all at one spot, or all on one
-// line.
+// Throws DataError(what, …) when a position or a normal has a NaN or Inf component (the readers
+// drop such points; a cloud built in memory may still hold them).
+void check_finite(const PointCloud& cloud, const std::string& what);
+
+// Throws DataError(what, …) when the cloud is not finite (check_finite), has fewer than 6 points,
+// all at one spot, or all on one line.
 void check_registrable(const PointCloud& cloud, const std::string& what);
 
 }  // namespace align3d

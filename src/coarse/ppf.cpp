@@ -475,13 +475,13 @@ void save_ppf_model(const std::filesystem::path& path, const PpfModel& model) {
 
 PpfModel load_ppf_model(const std::filesystem::path& path) {
   auto error = [&](const std::string& what, std::uint64_t offset) {
-    return IoError(path.string() + ": " + what + " at byte offset " + std::to_string(offset));
+    return IoError(path, what + " at byte offset " + std::to_string(offset));
   };
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw IoError(path.string() + ": cannot open the PPF model file");
+  if (!in) throw IoError(path, "cannot open the PPF model file");
   in.seekg(0, std::ios::end);
   const std::streamoff end = in.tellg();
-  if (end < 0) throw IoError(path.string() + ": cannot determine the file size");
+  if (end < 0) throw IoError(path, "cannot determine the file size");
   const auto size = static_cast<std::uint64_t>(end);
   in.seekg(0, std::ios::beg);
   unsigned char header[kHeaderBytes] = {};
