@@ -16,5 +16,5 @@ cmake --build "$build_dir" -j "${JOBS:-2}"
 if grep -q '^ALIGN3D_PYTHON:BOOL=ON$' "$build_dir/CMakeCache.txt"; then
   [ -x .venv/bin/python ] || /usr/bin/python3 -m venv --system-site-packages .venv
   ALIGN3D_CMAKE_BUILD_DIR=$build_dir JOBS=${JOBS:-2} \
-    .venv/bin/python -m pip install --quiet --no-build-isolation --no-index .
+    .venv/bin/python -m pip install --quiet --no-cache-dir --no-build-isolation --no-index .
 fi
