@@ -17,7 +17,8 @@ cd "$(dirname "$0")/.."
 bash scripts/setup.sh libtsan2
 build_dir=${BUILD_DIR:-build-tsan}
 # -O1 -g with assertions: cheap to build, readable stacks; benchmarks are not needed here.
-BUILD_DIR=$build_dir bash scripts/build.sh -DCMAKE_CXX_COMPILER=g++ \
+# No Python module: a TSan-instrumented extension does not load into an uninstrumented Python.
+ALIGN3D_PYTHON=OFF BUILD_DIR=$build_dir bash scripts/build.sh -DCMAKE_CXX_COMPILER=g++ \
   -DALIGN3D_SANITIZE_THREAD=ON -DALIGN3D_BUILD_TESTS=ON -DALIGN3D_BUILD_BENCH=OFF \
   -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g" "$@"
 

@@ -104,6 +104,43 @@ bool distinct(const AlignCandidate& a, const AlignCandidate& b, const PointCloud
          (a.transformation * c - b.transformation * c).norm() > 2 * a.support.reach;
 }
 
+// Settings no run can use: std::invalid_argument naming the field (align.hpp). The command line
+// checks its flags first, with their names; this guards every other caller (the Python binding).
+void check_settings(const AlignSettings& s) {
+  auto fail = [](const std::string& field, const std::string& rule, double value) {
+    throw std::invalid_argument("AlignSettings: " + field + " must be " + rule + ", got " +
+                                number(value));
+  };
+  auto finite_non_negative = [&](const std::string& field, double value) {
+    if (!(std::isfinite(value) && value >= 0)) fail(field, "a finite number >= 0", value);
+  };
+  const TerminationSettings& t = s.refine.termination;
+  if (t.max_iterations < 1)
+    fail("refine.termination.max_iterations", "at least 1", t.max_iterations);
+  finite_non_negative("refine.termination.rms_change", t.rms_change);
+  finite_non_negative("refine.termination.rotation", t.rotation);
+  finite_non_negative("refine.termination.translation", t.translation);
+  if (s.refine.normals.k < 3) fail("refine.normals.k", "at least 3", s.refine.normals.k);
+  if (s.threads < 0) fail("threads", ">= 0 (0: all cores)", s.threads);
+  finite_non_negative("global.voxel", s.global.voxel);
+  if (s.global.ransac_iterations < 0)  // 0: no hypothesis (a global stage that finds nothing)
+    fail("global.ransac_iterations", ">= 0", s.global.ransac_iterations);
+  if (!(s.global.ransac_confidence > 0 && s.global.ransac_confidence < 1))
+    fail("global.ransac_confidence", "in (0, 1)", s.global.ransac_confidence);
+  if (!(s.global.min_overlap >= 0 && s.global.min_overlap <= 1))
+    fail("global.min_overlap", "in [0, 1]", s.global.min_overlap);
+  if (!(s.global.ambiguity_ratio > 0 && s.global.ambiguity_ratio <= 1))
+    fail("global.ambiguity_ratio", "in (0, 1]", s.global.ambiguity_ratio);
+  finite_non_negative("global.distinct_rotation_deg", s.global.distinct_rotation_deg);
+  if (s.ppf_model != nullptr && (s.init == InitPolicy::kIdentity || s.init == InitPolicy::kPose))
+    throw std::invalid_argument(
+        "AlignSettings: ppf_model needs init global or auto (it feeds the global stage)");
+  if (s.ppf_model != nullptr && s.global.voxel > 0)
+    throw std::invalid_argument(
+        "AlignSettings: global.voxel with a ppf_model: the model's voxel was fixed when it was "
+        "built");
+}
+
 class Pipeline {
  public:
   Pipeline(const PointCloud& source, detail::TargetSide& target, const AlignSettings& s)
@@ -303,6 +340,7 @@ const char* to_string(InitPolicy p) {
 
 AlignResult align(const PointCloud& source, const PointCloud& target,
                   const AlignSettings& settings) {
+  check_settings(settings);
   check_registrable(source, "source");  // the source's problems are named first
   detail::TargetSide side(target, settings.refine.normals, settings.threads, false);
   Pipeline pipeline(source, side, settings);
@@ -311,6 +349,7 @@ AlignResult align(const PointCloud& source, const PointCloud& target,
 
 AlignResult align(const PointCloud& source, const PreparedTarget& target,
                   const AlignSettings& settings) {
+  check_settings(settings);
   check_registrable(source, "source");
   detail::TargetSide& side = detail::TargetSide::of(target);
   if (!side.refine.cloud().has_normals() && settings.refine.normals.k != side.refine.normal_k())

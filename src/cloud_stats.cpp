@@ -102,7 +102,18 @@ CloudScale measure_scale(const PointCloud& cloud, const KdTree& tree) {
   return {robust_extent(cloud), point_spacing(cloud, tree), surface_noise(cloud, tree)};
 }
 
+void check_finite(const PointCloud& cloud, const std::string& what) {
+  for (std::size_t i = 0; i < cloud.size(); ++i)
+    if (!cloud.positions[i].allFinite())
+      throw DataError(what, "point " + std::to_string(i) + " has a NaN or Inf coordinate");
+  if (cloud.has_normals())
+    for (std::size_t i = 0; i < cloud.size(); ++i)
+      if (!cloud.normals[i].allFinite())
+        throw DataError(what, "normal " + std::to_string(i) + " has a NaN or Inf component");
+}
+
 void check_registrable(const PointCloud& cloud, const std::string& what) {
+  check_finite(cloud, what);
   if (cloud.size() < 6)
     throw DataError(what, std::to_string(cloud.size()) + " points; registration needs at least 6");
   const Eigen::Vector3d c = centroid(cloud);

@@ -7,6 +7,10 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
+#include <functional>
+#include <stdexcept>
+#include <utility>
 
 #include "align3d/error.hpp"
 #include "align3d/synth/camera.hpp"
@@ -310,6 +314,56 @@ TEST(Align, NamesTheCloudThatCannotBeRegistered) {
     FAIL() << "no DataError";
   } catch (const DataError& e) {
     EXPECT_EQ(e.subject(), "target");
+  }
+}
+
+TEST(Align, RefusesANonFinitePointNamingTheCloud) {
+  const synth::Scene s = synth::make_conveyor_scene();
+  PointCloud bad = s.scan;
+  bad.positions[17].y() = std::nan("");
+  try {
+    align(bad, s.model);
+    FAIL() << "no DataError";
+  } catch (const DataError& e) {
+    EXPECT_EQ(e.subject(), "source");
+    EXPECT_EQ(e.problem(), "point 17 has a NaN or Inf coordinate");
+  }
+}
+
+// Each setting no run can use is an std::invalid_argument naming its field, before any work.
+TEST(Align, RefusesSettingsNoRunCanUseNamingTheField) {
+  const synth::Scene s = synth::make_conveyor_scene();
+  const PpfModel model;
+  const std::pair<std::string, std::function<void(AlignSettings&)>> cases[] = {
+      {"refine.termination.max_iterations",
+       [](AlignSettings& a) { a.refine.termination.max_iterations = 0; }},
+      {"refine.termination.rms_change",
+       [](AlignSettings& a) { a.refine.termination.rms_change = std::nan(""); }},
+      {"refine.termination.rotation", [](AlignSettings& a) { a.refine.termination.rotation = -1; }},
+      {"refine.normals.k", [](AlignSettings& a) { a.refine.normals.k = 2; }},
+      {"threads", [](AlignSettings& a) { a.threads = -1; }},
+      {"global.voxel", [](AlignSettings& a) { a.global.voxel = INFINITY; }},
+      {"global.ransac_confidence", [](AlignSettings& a) { a.global.ransac_confidence = 1; }},
+      {"ppf_model needs init global or auto",
+       [&](AlignSettings& a) {
+         a.ppf_model = &model;
+         a.init = InitPolicy::kIdentity;
+       }},
+      {"global.voxel with a ppf_model",
+       [&](AlignSettings& a) {
+         a.ppf_model = &model;
+         a.global.voxel = 1;
+       }},
+  };
+  for (const auto& [field, spoil] : cases) {
+    AlignSettings settings;
+    spoil(settings);
+    try {
+      align(s.scan, s.model, settings);
+      ADD_FAILURE() << field << ": accepted";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
+    }
   }
 }
 

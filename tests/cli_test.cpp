@@ -261,6 +261,30 @@ TEST_F(CliBadInput, WrongFlags) {
   expect_failure({"register", scene("scan.ply")}, code(ExitCode::kUsage), "TARGET");
 }
 
+// execute() is run() with the errors let through (the Python binding maps them): the same
+// message, as an exception of the class whose exit code run() returns.
+TEST_F(CliBadInput, ExecuteThrowsWhatRunReports) {
+  std::ostringstream out, err;
+  try {
+    cli::execute({"register", scene("scan.ply"), "missing.ply"}, out, err);
+    FAIL() << "no IoError";
+  } catch (const IoError& e) {
+    EXPECT_EQ(e.path(), "missing.ply");
+    EXPECT_EQ(run({"register", scene("scan.ply"), "missing.ply"}).err,
+              std::string("align3d: ") + e.what() + "\n");
+  }
+  try {
+    cli::execute({"register", scene("scan.ply"), scene("model.ply"), "--method", "plane"}, out,
+                 err);
+    FAIL() << "no UsageError";
+  } catch (const UsageError& e) {
+    EXPECT_NE(std::string(e.what()).find("(see align3d --help)"), std::string::npos);
+  }
+  EXPECT_THROW(cli::execute({}, out, err), UsageError);
+  EXPECT_EQ(cli::execute({"--version"}, out, err), 0);
+  EXPECT_EQ(err.str(), "");
+}
+
 TEST_F(CliBadInput, NoCorrespondencesIsNoSolution) {
   // distance:1e-6 mm admits no pair from the identity: exit 6, and no aligned cloud.
   test::TempDir out("nosol");

@@ -237,9 +237,65 @@ TEST_F(IoTest, WritersLeaveNoTemporaryFileAndReplaceTheOldContent) {
   EXPECT_EQ(read_point_cloud(path).size(), 7u);
 }
 
-TEST_F(IoTest, WriteIntoAMissingFolderIsAnOutputError) {
-  EXPECT_THROW(write_pcd(dir_ / "no_such_folder" / "a.pcd", random_cloud(5, false, 1)),
-               OutputError);
+TEST_F(IoTest, WriteIntoAMissingFolderIsAnOutputErrorWithThePath) {
+  const fs::path path = dir_ / "no_such_folder" / "a.pcd";
+  try {
+    write_pcd(path, random_cloud(5, false, 1));
+    FAIL() << "no OutputError";
+  } catch (const OutputError& e) {
+    EXPECT_EQ(e.path(), path);
+    EXPECT_EQ(std::string(e.what()).rfind(path.string() + ": cannot write", 0), 0u) << e.what();
+  }
+}
+
+TEST_F(IoTest, ReadErrorsCarryThePath) {
+  const fs::path path = write_file("bad.xyz", "1 2 x\n");
+  try {
+    read_point_cloud(path);
+    FAIL() << "no IoError";
+  } catch (const IoError& e) {
+    EXPECT_EQ(e.path(), path);
+    EXPECT_EQ(std::string(e.what()), path.string() + ": line 1: bad number 'x'");
+  }
+}
+
+TEST_F(IoTest, WriteSettingsByEncodingName) {
+  EXPECT_EQ(write_settings(CloudFormat::kPly, "ascii").ply, PlyEncoding::kAscii);
+  EXPECT_EQ(write_settings(CloudFormat::kPly, "binary_big_endian").ply,
+            PlyEncoding::kBinaryBigEndian);
+  EXPECT_EQ(write_settings(CloudFormat::kPly, "").ply, PlyEncoding::kBinaryLittleEndian);
+  EXPECT_EQ(write_settings(CloudFormat::kPcd, "binary_compressed").pcd,
+            PcdEncoding::kBinaryCompressed);
+  EXPECT_EQ(encoding_name(CloudFormat::kPcd, write_settings(CloudFormat::kPcd, "ascii")), "ascii");
+  EXPECT_THROW(write_settings(CloudFormat::kPcd, "binary_big_endian"), std::invalid_argument);
+  EXPECT_THROW(write_settings(CloudFormat::kXyz, "ascii"), std::invalid_argument);
+  EXPECT_NO_THROW(write_settings(CloudFormat::kXyz, ""));
+}
+
+TEST(RigidProblem, SaysWhatIsNotRigidAndSnapsWhatIs) {
+  Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+  EXPECT_EQ(rigid_problem(m), "");
+  m(3, 0) = 0.5;
+  bool last_row = false;
+  EXPECT_NE(rigid_problem(m, &last_row).find("last row must be 0 0 0 1"), std::string::npos);
+  EXPECT_TRUE(last_row);
+  m = Eigen::Matrix4d::Identity();
+  m(0, 0) = 2;
+  EXPECT_NE(rigid_problem(m, &last_row).find("not orthonormal"), std::string::npos);
+  EXPECT_FALSE(last_row);
+  m(0, 0) = -1;
+  EXPECT_NE(rigid_problem(m).find("determinant -1"), std::string::npos);
+  m(0, 0) = std::nan("");
+  EXPECT_NE(rigid_problem(m).find("non-finite"), std::string::npos);
+  // A rotation a few ulps off comes back orthonormal, the translation as it was.
+  Eigen::Matrix4d r = Eigen::Matrix4d::Identity();
+  r.topLeftCorner<3, 3>() = Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()).matrix();
+  r(0, 1) += 1e-9;
+  r.topRightCorner<3, 1>() = Eigen::Vector3d(1, -2, 3);
+  ASSERT_EQ(rigid_problem(r), "");
+  const Eigen::Isometry3d T = to_rigid(r);
+  EXPECT_LT((T.linear().transpose() * T.linear() - Eigen::Matrix3d::Identity()).norm(), 1e-14);
+  EXPECT_EQ(T.translation(), Eigen::Vector3d(1, -2, 3));
 }
 
 TEST_F(IoTest, EmptyCloudIsWrittenButReadingItSaysNoPoints) {

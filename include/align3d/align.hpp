@@ -108,8 +108,10 @@ struct AlignResult {
   AlignTimings timings;
 };
 
-// Throws DataError("source"/"target", …) for clouds that cannot be registered (too few points, all
-// on a line; refine.hpp, global.hpp) and std::invalid_argument for inconsistent settings.
+// Throws DataError("source"/"target", …) for clouds that cannot be registered (a NaN or Inf
+// coordinate, too few points, all on a line; refine.hpp, global.hpp) and std::invalid_argument,
+// naming the field, for settings no run can use (an iteration cap below 1, a negative or
+// non-finite tolerance or voxel, k below 3, negative threads, ...).
 AlignResult align(const PointCloud& source, const PointCloud& target,
                   const AlignSettings& settings = {});
 // The same against a target prepared once for many sources (prepared_target.hpp): the same pose,

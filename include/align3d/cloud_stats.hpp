@@ -41,8 +41,12 @@ struct CloudScale {
 // `tree` indexes the cloud.
 CloudScale measure_scale(const PointCloud& cloud, const KdTree& tree);
 
-// Throws DataError(what, …) when the cloud has fewer than 6 points, all at one spot, or all on one
-// line.
+// Throws DataError(what, …) when a position or a normal has a NaN or Inf component (the readers
+// drop such points; a cloud built in memory may still hold them).
+void check_finite(const PointCloud& cloud, const std::string& what);
+
+// Throws DataError(what, …) when the cloud is not finite (check_finite), has fewer than 6 points,
+// all at one spot, or all on one line.
 void check_registrable(const PointCloud& cloud, const std::string& what);
 
 }  // namespace align3d

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <filesystem>
 #include <stdexcept>
 #include <string>
 
@@ -29,17 +30,29 @@ class Error : public std::runtime_error {
   ExitCode code_;
 };
 
-// A file cannot be read or parsed. The message names the file and, for parse errors, the line
-// (text formats) or the byte offset (binary formats).
+// A file cannot be read or parsed. The message is "<path>: <problem>"; for parse errors the
+// problem names the line (text formats) or the byte offset (binary formats). path() is the file,
+// for a front end that shows it apart (the Python binding's FileError.path).
 class IoError : public Error {
  public:
-  explicit IoError(const std::string& message) : Error(ExitCode::kInput, message) {}
+  IoError(const std::filesystem::path& path, const std::string& problem)
+      : Error(ExitCode::kInput, path.string() + ": " + problem), path_(path) {}
+  const std::filesystem::path& path() const { return path_; }
+
+ private:
+  std::filesystem::path path_;
 };
 
-// Writing an output file failed; nothing was left at the destination.
+// Writing an output file failed; nothing was left at the destination. The message is
+// "<path>: <problem>", path() the destination.
 class OutputError : public Error {
  public:
-  explicit OutputError(const std::string& message) : Error(ExitCode::kOutput, message) {}
+  OutputError(const std::filesystem::path& path, const std::string& problem)
+      : Error(ExitCode::kOutput, path.string() + ": " + problem), path_(path) {}
+  const std::filesystem::path& path() const { return path_; }
+
+ private:
+  std::filesystem::path path_;
 };
 
 // Input data is well-formed but unusable (too few points, all points on a line, no plane).

@@ -8,7 +8,7 @@
 
 namespace align3d::cli {
 
-int run(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
+int execute(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
   CLI::App app{
       "align3d: rigid registration and rectification of 3D point clouds.\n"
       "Transforms map SOURCE into TARGET's frame (target ≈ T·source). Exit codes: 0 ok, 1 internal "
@@ -35,14 +35,16 @@ int run(const std::vector<std::string>& args, std::ostream& out, std::ostream& e
     return 0;
   } catch (const CLI::ParseError& e) {
     // Help requested on a subcommand arrives as CallForHelp too; everything else is a usage error.
-    err << "align3d: " << e.what() << " (see align3d --help)\n";
-    return static_cast<int>(ExitCode::kUsage);
+    throw UsageError(std::string(e.what()) + " (see align3d --help)");
   }
+  for (const Command& c : commands)
+    if (c.app->parsed()) return c.run();
+  throw UsageError("no subcommand (see align3d --help)");
+}
+
+int run(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
   try {
-    for (const Command& c : commands)
-      if (c.app->parsed()) return c.run();
-    err << "align3d: no subcommand (see align3d --help)\n";
-    return static_cast<int>(ExitCode::kUsage);
+    return execute(args, out, err);
   } catch (const Error& e) {
     err << "align3d: " << e.what() << "\n";
     return static_cast<int>(e.code());

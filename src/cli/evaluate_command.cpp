@@ -117,7 +117,7 @@ int run_evaluate(const EvaluateOptions& o, Streams io) {
       o.quick ? std::vector<double>{0, 0.25} : std::vector<double>{0, 0.05, 0.1, 0.2, 0.35, 0.5};
   std::error_code ec;
   std::filesystem::create_directories(o.outdir, ec);
-  if (ec) throw OutputError(o.outdir + ": cannot create directory: " + ec.message());
+  if (ec) throw OutputError(o.outdir, "cannot create directory: " + ec.message());
 
   const auto scenes = evaluation_scenes();
   std::ostringstream md;

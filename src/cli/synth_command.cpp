@@ -30,7 +30,7 @@ struct SynthOptions {
 void make_directory(const std::filesystem::path& outdir) {
   std::error_code ec;
   std::filesystem::create_directories(outdir, ec);
-  if (ec) throw OutputError(outdir.string() + ": cannot create directory: " + ec.message());
+  if (ec) throw OutputError(outdir, "cannot create directory: " + ec.message());
 }
 
 // model.ply (the target), scan.ply (the source) and ground_truth.txt (model ≈ T·scan).

@@ -375,7 +375,7 @@ double get_f64(const unsigned char* p) { return std::bit_cast<double>(get_u64(p)
 // The error for a malformed model file: "PATH: WHAT at byte offset N".
 IoError format_error(const std::filesystem::path& path, const std::string& what,
                      std::uint64_t offset) {
-  return IoError(path.string() + ": " + what + " at byte offset " + std::to_string(offset));
+  return IoError(path, what + " at byte offset " + std::to_string(offset));
 }
 
 // The table sizes a model file's header declares.
@@ -680,10 +680,10 @@ void save_ppf_model(const std::filesystem::path& path, const PpfModel& model) {
 
 PpfModel load_ppf_model(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw IoError(path.string() + ": cannot open the PPF model file");
+  if (!in) throw IoError(path, "cannot open the PPF model file");
   in.seekg(0, std::ios::end);
   const std::streamoff end = in.tellg();
-  if (end < 0) throw IoError(path.string() + ": cannot determine the file size");
+  if (end < 0) throw IoError(path, "cannot determine the file size");
   const auto size = static_cast<std::uint64_t>(end);
   in.seekg(0, std::ios::beg);
   PpfModel model;

@@ -40,7 +40,7 @@ void write_via_temporary(const std::filesystem::path& path,
   if (ec) {
     std::error_code ignored;
     std::filesystem::remove(tmp, ignored);
-    throw OutputError(path.string() + ": cannot write: " + ec.message());
+    throw OutputError(path, "cannot write: " + ec.message());
   }
 }
 
@@ -48,10 +48,10 @@ void write_atomically(const std::filesystem::path& path,
                       const std::function<void(std::ostream&)>& write) {
   write_via_temporary(path, [&](const std::filesystem::path& tmp) {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw OutputError(path.string() + ": cannot write: cannot create file");
+    if (!out) throw OutputError(path, "cannot write: cannot create file");
     write(out);
     out.flush();
-    if (!out) throw OutputError(path.string() + ": cannot write: write failed (disk full?)");
+    if (!out) throw OutputError(path, "cannot write: write failed (disk full?)");
   });
 }
 

@@ -61,35 +61,49 @@ Eigen::Isometry3d parse_matrix(BlockReader& in) {
   }
   if (rows != 4) detail::fail(path, "expected 4 rows, found " + std::to_string(rows));
 
-  if ((m.row(3) - Eigen::RowVector4d(0, 0, 0, 1)).cwiseAbs().maxCoeff() > kLastRowTolerance) {
-    detail::fail(path,
-                 line_name(row_line[3]) + ": last row must be 0 0 0 1 (not a rigid transform)");
+  bool last_row = false;
+  const std::string problem = rigid_problem(m, &last_row);
+  if (!problem.empty()) {
+    detail::fail(path, (last_row ? line_name(row_line[3])
+                                 : "lines " + std::to_string(row_line[0]) + "-" +
+                                       std::to_string(row_line[2])) +
+                           ": " + problem);
   }
-  const std::string rotation_lines =
-      "lines " + std::to_string(row_line[0]) + "-" + std::to_string(row_line[2]);
+  return to_rigid(m);
+}
+
+}  // namespace detail
+
+std::string rigid_problem(const Eigen::Matrix4d& m, bool* last_row) {
+  if (last_row != nullptr) *last_row = false;
+  if (!m.allFinite()) return "non-finite entry (not a rigid transform)";
+  if ((m.row(3) - Eigen::RowVector4d(0, 0, 0, 1)).cwiseAbs().maxCoeff() > kLastRowTolerance) {
+    if (last_row != nullptr) *last_row = true;
+    return "last row must be 0 0 0 1 (not a rigid transform)";
+  }
   const Eigen::Matrix3d R = m.topLeftCorner<3, 3>();
   const double error = (R.transpose() * R - Eigen::Matrix3d::Identity()).norm();
   if (error > kOrthonormalTolerance) {
     std::string shown;
     detail::append_general(shown, error, 3);
-    detail::fail(path, rotation_lines + ": rotation is not orthonormal (||R^T R - I|| = " + shown +
-                           "; not a rigid transform: scaled or sheared?)");
+    return "rotation is not orthonormal (||R^T R - I|| = " + shown +
+           "; not a rigid transform: scaled or sheared?)";
   }
-  if (R.determinant() < 0.0) {
-    detail::fail(path, rotation_lines +
-                           ": rotation has determinant -1 (a reflection, not a rigid "
-                           "transform)");
-  }
+  if (R.determinant() < 0.0)
+    return "rotation has determinant -1 (a reflection, not a rigid transform)";
+  return {};
+}
+
+Eigen::Isometry3d to_rigid(const Eigen::Matrix4d& m) {
   // Text rounding leaves R a few ulps off orthonormal; snapping it to the nearest rotation (U Vᵀ of
   // its SVD, the orthogonal Procrustes solution) keeps composed transforms from drifting.
-  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(R, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(m.topLeftCorner<3, 3>(),
+                                              Eigen::ComputeFullU | Eigen::ComputeFullV);
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
   T.linear() = svd.matrixU() * svd.matrixV().transpose();
   T.translation() = m.topRightCorner<3, 1>();
   return T;
 }
-
-}  // namespace detail
 
 Eigen::Isometry3d read_matrix(const std::filesystem::path& path) {
   const auto file = detail::open_file(path, kMaxMatrixFileBytes);

@@ -554,8 +554,8 @@ void write_pcd(const std::filesystem::path& path, const PointCloud& cloud, PcdEn
 
   if (encoding == PcdEncoding::kBinaryCompressed) {
     if (std::uint64_t{n} * fields * sizeof(float) > std::numeric_limits<std::uint32_t>::max()) {
-      throw OutputError(path.string() + ": cannot write: " + std::to_string(n) +
-                        " points exceed binary_compressed's 4 GiB limit (use binary)");
+      throw OutputError(path, "cannot write: " + std::to_string(n) +
+                                  " points exceed binary_compressed's 4 GiB limit (use binary)");
     }
     write_atomically(path, [&](std::ostream& out) {
       write_compressed(out, header, cloud.size(), fields, kept, value);

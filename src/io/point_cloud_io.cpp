@@ -4,6 +4,9 @@
 #include <cstdint>
 #include <limits>
 #include <new>
+#include <stdexcept>
+#include <string_view>
+#include <utility>
 
 #include "align3d/error.hpp"
 #include "io_detail.hpp"
@@ -12,7 +15,7 @@ namespace align3d::io {
 namespace detail {
 
 void fail(const std::filesystem::path& path, const std::string& problem) {
-  throw IoError(path.string() + ": " + problem);
+  throw IoError(path, problem);
 }
 
 void check_line_length(const std::filesystem::path& path, std::string_view line, std::size_t number,
@@ -152,12 +155,70 @@ PointCloud read_point_cloud(const std::filesystem::path& path, ReadInfo* info) {
   return cloud;
 }
 
+namespace {
+
+// Sets `out` to the encoding named `name` in `table`; false if the table has no such name.
+template <typename E, std::size_t kSize>
+bool set_encoding(const std::pair<std::string_view, E> (&table)[kSize], std::string_view name,
+                  E& out) {
+  for (const auto& [key, value] : table) {
+    if (key == name) {
+      out = value;
+      return true;
+    }
+  }
+  return false;
+}
+
+}  // namespace
+
+WriteSettings write_settings(CloudFormat format, const std::string& encoding) {
+  static constexpr std::pair<std::string_view, PlyEncoding> kPly[] = {
+      {"ascii", PlyEncoding::kAscii},
+      {"binary", PlyEncoding::kBinaryLittleEndian},
+      {"binary_little_endian", PlyEncoding::kBinaryLittleEndian},
+      {"binary_big_endian", PlyEncoding::kBinaryBigEndian}};
+  static constexpr std::pair<std::string_view, PcdEncoding> kPcd[] = {
+      {"ascii", PcdEncoding::kAscii},
+      {"binary", PcdEncoding::kBinary},
+      {"binary_compressed", PcdEncoding::kBinaryCompressed}};
+  WriteSettings settings;
+  if (encoding.empty()) return settings;
+  if (format == CloudFormat::kPly && !set_encoding(kPly, encoding, settings.ply)) {
+    throw std::invalid_argument("PLY has no encoding '" + encoding +
+                                "' (ascii, binary, binary_big_endian)");
+  }
+  if (format == CloudFormat::kPcd && !set_encoding(kPcd, encoding, settings.pcd)) {
+    throw std::invalid_argument("PCD has no encoding '" + encoding +
+                                "' (ascii, binary, binary_compressed)");
+  }
+  if (format == CloudFormat::kXyz) {
+    throw std::invalid_argument(".xyz, .txt and .csv files are text and have no encoding");
+  }
+  return settings;
+}
+
+std::string_view encoding_name(CloudFormat format, const WriteSettings& s) {
+  switch (format) {
+    case CloudFormat::kPly:
+      return s.ply == PlyEncoding::kAscii                ? "ascii"
+             : s.ply == PlyEncoding::kBinaryLittleEndian ? "binary little-endian"
+                                                         : "binary big-endian";
+    case CloudFormat::kPcd:
+      return s.pcd == PcdEncoding::kAscii    ? "ascii"
+             : s.pcd == PcdEncoding::kBinary ? "binary"
+                                             : "binary_compressed";
+    case CloudFormat::kXyz:
+      break;
+  }
+  return "text";
+}
+
 void write_point_cloud(const std::filesystem::path& path, const PointCloud& cloud,
                        const WriteSettings& settings) {
   const std::optional<CloudFormat> format = cloud_format(path);
   if (!format) {
-    throw OutputError(path.string() +
-                      ": cannot write: " + unknown_format_problem(lower_extension(path)));
+    throw OutputError(path, "cannot write: " + unknown_format_problem(lower_extension(path)));
   }
   switch (*format) {
     case CloudFormat::kPly:

@@ -94,6 +94,7 @@ RectifyResult rectify(const PointCloud& cloud, const RectifySettings& settings) 
   const double up_scale = settings.up ? settings.up->cwiseAbs().maxCoeff() : 1.0;
   if (!(up_scale > 0) || !std::isfinite(up_scale))
     throw std::invalid_argument("rectify: RectifySettings::up must be a finite non-zero vector");
+  check_finite(cloud, "cloud");
   const auto& points = cloud.positions;
   std::vector<std::size_t> inliers;
   Plane plane;

@@ -27,7 +27,7 @@ using ContextPtr = std::unique_ptr<cairo_t, ContextDeleter>;
 
 void check(cairo_status_t status, const std::filesystem::path& destination) {
   if (status != CAIRO_STATUS_SUCCESS) {
-    throw OutputError(destination.string() + ": cannot write: " + cairo_status_to_string(status));
+    throw OutputError(destination, std::string("cannot write: ") + cairo_status_to_string(status));
   }
 }
 

@@ -285,7 +285,7 @@ void write_chapter_report(const ChapterScene& scene, const ChapterResults& r,
                           const std::filesystem::path& outdir) {
   std::error_code ec;
   std::filesystem::create_directories(outdir, ec);
-  if (ec) throw OutputError(outdir.string() + ": cannot create directory: " + ec.message());
+  if (ec) throw OutputError(outdir, "cannot create directory: " + ec.message());
   const std::string table = chapter_table(r);
   io::write_text_atomically(outdir / "table.md", table);
 

@@ -50,7 +50,7 @@ std::string html_figure(const std::filesystem::path& png, const std::string& cap
   std::ifstream in(png, std::ios::binary);
   std::ostringstream bytes;
   bytes << in.rdbuf();
-  if (!in) throw OutputError(png.string() + ": cannot read the figure back to embed it");
+  if (!in) throw OutputError(png, "cannot read the figure back to embed it");
   return "<figure><img alt=\"" + html_escape(png.stem().string()) +
          "\" src=\"data:image/png;base64," + base64(bytes.str()) + "\"><figcaption>" +
          html_escape(caption) + "</figcaption></figure>\n";

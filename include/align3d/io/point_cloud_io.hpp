@@ -38,6 +38,7 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <string_view>
 
 #include "align3d/point_cloud.hpp"
 
@@ -98,6 +99,15 @@ struct WriteSettings {
   PcdEncoding pcd = PcdEncoding::kBinary;              // for .pcd
   PcdLayout pcd_layout;                                // for .pcd
 };
+
+// The settings that write `format` in the encoding named `encoding`: PLY ascii, binary (or
+// binary_little_endian; the default) or binary_big_endian; PCD ascii, binary (the default) or
+// binary_compressed; empty: the defaults. std::invalid_argument for a name the format lacks, and
+// for any name with .xyz/.txt/.csv (text has no encoding). `align3d convert --encoding` and the
+// Python binding name encodings this way.
+WriteSettings write_settings(CloudFormat format, const std::string& encoding);
+// How `settings` encode `format`, for people: "ascii", "binary little-endian", ..., "text".
+std::string_view encoding_name(CloudFormat format, const WriteSettings& settings);
 
 // Writes by extension: .ply, .pcd as `settings` say, .xyz/.txt/.csv text (separated by spaces, also
 // for .csv). Any other extension is an OutputError, and nothing is written.

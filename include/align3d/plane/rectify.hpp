@@ -52,7 +52,8 @@ struct RectifyResult {
 // The rotation taking unit vector n to +Z by the shortest arc (Rodrigues), with the ±Z cases above.
 Eigen::Matrix3d rotation_to_z(const Eigen::Vector3d& n);
 
-// Throws DataError when the cloud defines no plane (too few points, collinear, a volume).
+// Throws DataError when the cloud defines no plane (too few points, collinear, a volume) or holds a
+// NaN or Inf coordinate.
 RectifyResult rectify(const PointCloud& cloud, const RectifySettings& settings = {});
 
 }  // namespace align3d

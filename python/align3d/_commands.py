@@ -1,0 +1,130 @@
+"""The file-to-file commands of the ``align3d`` tool, run in-process: the same code, checks,
+defaults and outputs as the command line, errors raised as exceptions. A keyword left at None
+takes the command's default (``align3d COMMAND --help`` shows them)."""
+
+from __future__ import annotations
+
+import json
+import os
+import warnings
+from pathlib import Path
+from typing import Any, Dict, List, Optional
+
+from . import _core
+from ._cloud import PathLike
+from ._errors import AlignWarning
+
+_WARNING = "align3d: warning: "
+
+
+def _option_text(name: str, value: Any) -> str:
+    if isinstance(value, bool) or not isinstance(value, (int, float, str, os.PathLike)):
+        raise TypeError(f"{name}: expected a number or a string, got {type(value).__name__}")
+    if isinstance(value, float):
+        return repr(value)  # round-trips exactly
+    return os.fspath(value) if isinstance(value, os.PathLike) else str(value)
+
+
+def run(command: str, positional: List[Any], options: Dict[str, Any],
+        flags: Optional[Dict[str, bool]] = None) -> str:
+    """Runs ``align3d COMMAND --option=value ... [--flag ...] -- POSITIONAL...`` in-process and
+    returns its stdout. Options that are None are left out (the command's default); every
+    ``align3d: warning:`` line on stderr is issued as an AlignWarning (code ``file``)."""
+    args = [command]
+    for name, value in options.items():
+        if value is not None:
+            args.append(f"--{name.replace('_', '-')}={_option_text(name, value)}")
+    for name, on in (flags or {}).items():
+        if on:
+            args.append(f"--{name.replace('_', '-')}")
+    args.append("--")  # positionals after it are never taken for flags
+    args += [os.fspath(p) for p in positional]
+    _, out, err = _core.run_command(args)
+    for line in err.splitlines():
+        if line.startswith(_WARNING):
+            warnings.warn(AlignWarning("file", line[len(_WARNING):]), stacklevel=3)
+    return out
+
+
+def _json(path: Path) -> Dict[str, Any]:
+    with open(path, encoding="utf-8") as f:
+        return json.load(f)
+
+
+def synth(
+    outdir: PathLike,
+    *,
+    scene: Optional[str] = None,
+    seed: Optional[int] = None,
+    variant: Optional[str] = None,
+    points: Optional[int] = None,
+    instances: Optional[int] = None,
+    azimuth: Optional[float] = None,
+    angle: Optional[float] = None,
+    views: Optional[int] = None,
+) -> Dict[str, Any]:
+    """Writes a synthetic scene with ground truth into ``outdir`` (``align3d synth``; created if
+    missing) and returns its ``scene.json`` as a dict. Units: mm.
+
+    ``scene``: ``"chapter"`` (default: the conveyor scene: ``model.ply`` the target,
+    ``scan.ply`` the source, ``ground_truth.txt`` with model ≈ T·scan, ``plate.ply`` and
+    ``plate_cluttered.ply``; ``variant`` picks a harder geometry: ``wide-plane``,
+    ``small-features``, ``large-offset``, ``extreme``), ``"parts"`` (a work cell of ``points``
+    points a cloud), ``"bin"`` (a depth camera above a bin with ``instances`` objects) or
+    ``"views"`` (``views`` range scans of an object, the first at ``azimuth``, then every
+    ``angle`` degrees). ``seed``: the same seed writes the same bytes (default 39).
+    Read the clouds with :func:`read_point_cloud` and the truth with :func:`read_matrix`."""
+    run("synth", [outdir], dict(scene=scene, seed=seed, variant=variant, points=points,
+                                instances=instances, azimuth=azimuth, angle=angle, views=views))
+    return _json(Path(outdir) / "scene.json")
+
+
+def evaluate(
+    outdir: PathLike = "align3d_evaluation",
+    *,
+    trials: Optional[int] = None,
+    cell_trials: Optional[int] = None,
+    seed: Optional[int] = None,
+    quick: bool = False,
+    threads: Optional[int] = None,
+) -> Dict[str, Any]:
+    """Measures registration from random starting poses (``align3d evaluate``): success rates of
+    ICP alone, global + ICP and the default ``init="auto"`` on the chapter scene and two object
+    views, and the convergence basin. Writes ``evaluation.md``, ``evaluation.json`` and
+    ``basin.svg``/``.png`` into ``outdir`` and returns ``evaluation.json`` as a dict
+    (``success``: one row per scene and method; ``basin``: one grid per method). The full run
+    takes minutes; ``quick=True`` (3 trials, a 2×2 basin) checks the machinery in seconds."""
+    run("evaluate", [outdir],
+        dict(trials=trials, cell_trials=cell_trials, seed=seed, threads=threads),
+        dict(quick=quick, quiet=True))
+    return _json(Path(outdir) / "evaluation.json")
+
+
+def demo(
+    outdir: PathLike = "align3d_demo",
+    *,
+    scene: Optional[PathLike] = None,
+    seed: Optional[int] = None,
+    threads: Optional[int] = None,
+) -> Dict[str, Any]:
+    """Reproduces the chapter's experiments (``align3d demo``) on a generated scene (``seed``) or
+    on a directory written by :func:`synth` (``scene``); writes ``table.md``, ``results.json``,
+    figures ``fig39_1`` … ``fig39_6`` and ``report.html`` into ``outdir`` and returns
+    ``results.json`` as a dict (one registration report per experiment under ``icp``)."""
+    run("demo", [outdir], dict(scene=scene, seed=seed, threads=threads), dict(quiet=True))
+    return _json(Path(outdir) / "results.json")
+
+
+def convert(input: PathLike, output: PathLike, *, encoding: Optional[str] = None) -> None:
+    """Converts a cloud file between PLY, PCD and XYZ/TXT/CSV, each by its extension
+    (``align3d convert``). Normals are kept where ``output``'s format holds them; a PCD's
+    VIEWPOINT is kept into a PCD; points with a NaN or Inf coordinate are dropped (with an
+    :class:`AlignWarning`). ``encoding`` as :func:`write_point_cloud`'s. Written atomically."""
+    run("convert", [input, output], dict(encoding=encoding))
+
+
+def ppf_model(model: PathLike, out: PathLike, *, voxel: Optional[float] = None) -> None:
+    """Builds the point-pair-feature description of the cloud file ``model`` and saves it to
+    ``out`` (``align3d ppf-model``), for ``register(scan, model, ppf_model=out)`` on many scans.
+    ``voxel`` in data units (default 0: the model's extent / 50, as register's global stage)."""
+    run("ppf-model", [model, out], dict(voxel=voxel))

@@ -1,0 +1,28 @@
+// The extension module align3d._core: a thin shell over the library, one file per module of it.
+// The Python package (python/align3d/) is the public API; it validates arrays and keywords and
+// wraps what these functions return. Rules for every function here:
+//   - the GIL is released around the library's work (clouds are read and registered in parallel
+//     from Python threads); a Python callback takes it back for the duration of its call;
+//   - C++ exceptions become the Python exceptions of align3d._errors in one place (errors.cpp);
+//   - no logic the library, its report module or its command line does not already have.
+#pragma once
+
+#include <pybind11/pybind11.h>
+
+#include <Eigen/Geometry>
+#include <string>
+
+namespace align3d::python {
+
+namespace py = pybind11;
+
+void bind_errors(py::module_& m);    // errors.cpp: the exception translator
+void bind_cloud(py::module_& m);     // cloud.cpp: PointCloud, files, matrices
+void bind_register(py::module_& m);  // register.cpp: align() and rectify() with their reports
+void bind_commands(py::module_& m);  // commands.cpp: a command of the `align3d` tool in-process
+
+// The rigid transform in a 4x4 array, by the rule of transform files (io/matrix_io.hpp);
+// std::invalid_argument "<what>: <problem>" otherwise (cloud.cpp).
+Eigen::Isometry3d rigid(const Eigen::Matrix4d& m, const std::string& what);
+
+}  // namespace align3d::python

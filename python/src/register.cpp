@@ -1,0 +1,175 @@
+// align() (align.hpp) and rectify() (plane/rectify.hpp) with the settings of `align3d register`
+// and `align3d rectify`, returning the JSON report the command line writes, built by the same
+// function (report/json.hpp): the package's Result.to_dict() is that report.
+#include <pybind11/eigen.h>
+#include <pybind11/stl.h>
+#include <pybind11/stl/filesystem.h>
+
+#include <memory>
+#include <optional>
+#include <stdexcept>
+#include <string>
+
+#include "align3d/align.hpp"
+#include "align3d/coarse/ppf.hpp"
+#include "align3d/io/matrix_io.hpp"
+#include "align3d/plane/rectify.hpp"
+#include "align3d/report/json.hpp"
+#include "binding.hpp"
+
+namespace align3d::python {
+namespace {
+
+// The value among `choices` whose to_string() is `text`; std::invalid_argument naming `what` and
+// the choices otherwise.
+template <typename E, std::size_t kSize>
+E parse_choice(const std::string& what, const std::string& text, const E (&choices)[kSize]) {
+  std::string names;
+  for (const E c : choices) {
+    if (text == to_string(c)) return c;
+    names += (names.empty() ? "'" : ", '") + std::string(to_string(c)) + "'";
+  }
+  throw std::invalid_argument(what + ": expected one of " + names + ", got '" + text + "'");
+}
+
+constexpr InitPolicy kInitPolicies[] = {InitPolicy::kAuto, InitPolicy::kIdentity,
+                                        InitPolicy::kGlobal, InitPolicy::kPose};
+constexpr IcpMethod kMethods[] = {IcpMethod::kPointToPlane, IcpMethod::kPointToPoint};
+constexpr GlobalMethod kGlobalMethods[] = {GlobalMethod::kFpfh, GlobalMethod::kPpf};
+
+// A Python progress callback behind the library's (progress.hpp: called on the thread that called
+// the library, which has released the GIL): takes the GIL for the call. A callback must not throw
+// into the library, so the first Python exception is kept, later calls are skipped, and rethrow()
+// raises it once the work is done.
+class PythonProgress {
+ public:
+  explicit PythonProgress(py::object callback) : callback_(std::move(callback)) {}
+
+  ProgressCallback callback() {
+    if (callback_.is_none()) return {};
+    return [this](const Progress& p) { call(p); };
+  }
+
+  void rethrow() {  // with the GIL held
+    if (error_) throw *error_;
+  }
+
+ private:
+  void call(const Progress& p) {
+    py::gil_scoped_acquire gil;
+    if (error_) return;
+    try {
+      callback_(p.task, p.done, p.total);
+    } catch (py::error_already_set& e) {
+      error_ = std::make_unique<py::error_already_set>(std::move(e));
+    }
+  }
+
+  py::object callback_;
+  std::unique_ptr<py::error_already_set> error_;
+};
+
+// A pose argument: None, a transform file's name (read as `--init FILE` and `--ground-truth FILE`
+// are) or a 4x4 array (checked as such a file is).
+std::optional<Eigen::Isometry3d> pose(const py::object& value, const std::string& what) {
+  if (value.is_none()) return std::nullopt;
+  if (py::isinstance<py::str>(value)) return io::read_matrix(value.cast<std::string>());
+  return rigid(value.cast<Eigen::Matrix4d>(), what);
+}
+
+// The report text as the command line writes it (report::write_json).
+std::string text(const nlohmann::json& report) { return report.dump(2) + "\n"; }
+
+std::string register_clouds(const PointCloud& source, const PointCloud& target,
+                            const std::string& init, const py::object& initial_pose,
+                            const std::string& method, const std::string& global_method,
+                            const std::optional<std::filesystem::path>& ppf_model, double voxel,
+                            std::uint64_t seed, bool mutual, const std::string& reject,
+                            int max_iterations, double tolerance, int normal_k, int threads,
+                            const py::object& ground_truth, const std::string& source_path,
+                            const std::string& target_path, double read_ms,
+                            const py::object& progress) {
+  AlignSettings s;
+  s.init = parse_choice("init", init, kInitPolicies);
+  if (const auto T = pose(initial_pose, "init")) s.initial_pose = *T;
+  s.refine.method = parse_choice("method", method, kMethods);
+  s.global.method = parse_choice("global_method", global_method, kGlobalMethods);
+  try {
+    s.refine.rejection = parse_rejection_rule(reject);
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(std::string("reject: ") + e.what());
+  }
+  s.global.voxel = voxel;
+  s.seed = seed;
+  s.global.mutual_filter = mutual;
+  s.refine.termination.max_iterations = max_iterations;
+  s.refine.termination.rms_change = tolerance;
+  s.refine.normals.k = normal_k;
+  s.threads = threads;
+  const std::optional<Eigen::Isometry3d> truth = pose(ground_truth, "ground_truth");
+
+  PythonProgress python_progress(progress);
+  s.progress = python_progress.callback();
+  std::optional<PpfModel> model;
+  nlohmann::json report;
+  {
+    py::gil_scoped_release release;
+    if (ppf_model) {
+      model = load_ppf_model(*ppf_model);
+      s.ppf_model = &*model;
+    }
+    const AlignResult r = align(source, target, s);
+    report = report::registration_report(r, s, {source_path, source.size()},
+                                         {target_path, target.size()}, truth);
+  }
+  python_progress.rethrow();
+  report["timing_ms"]["read"] = read_ms;  // as `align3d register` adds it
+  return text(report);
+}
+
+std::string rectify_cloud(const PointCloud& cloud, const std::string& fit,
+                          const std::optional<Eigen::Vector3d>& up, std::uint64_t seed,
+                          const std::string& cloud_path) {
+  RectifySettings s;
+  if (fit != "robust" && fit != "lsq")
+    throw std::invalid_argument("fit: expected one of 'robust', 'lsq', got '" + fit + "'");
+  s.robust = fit == "robust";
+  s.up = up;
+  s.ransac.seed = seed;
+  py::gil_scoped_release release;
+  const RectifyResult r = rectify(cloud, s);
+  return text(report::rectify_report(r, s, {cloud_path, cloud.size()}));
+}
+
+// Every default of the two functions, from the library's settings structs (declared once there).
+py::dict defaults() {
+  const AlignSettings a;
+  const RectifySettings r;
+  return py::dict(
+      py::arg("register") = py::dict(
+          py::arg("init") = to_string(a.init), py::arg("method") = to_string(a.refine.method),
+          py::arg("global_method") = to_string(a.global.method), py::arg("voxel") = a.global.voxel,
+          py::arg("seed") = a.seed, py::arg("mutual") = a.global.mutual_filter,
+          py::arg("reject") = to_string(a.refine.rejection),
+          py::arg("max_iterations") = a.refine.termination.max_iterations,
+          py::arg("tolerance") = a.refine.termination.rms_change,
+          py::arg("normal_k") = a.refine.normals.k, py::arg("threads") = a.threads),
+      py::arg("rectify") =
+          py::dict(py::arg("fit") = r.robust ? "robust" : "lsq", py::arg("seed") = r.ransac.seed));
+}
+
+}  // namespace
+
+void bind_register(py::module_& m) {
+  m.def("register", &register_clouds, py::arg("source"), py::arg("target"), py::kw_only(),
+        py::arg("init"), py::arg("initial_pose"), py::arg("method"), py::arg("global_method"),
+        py::arg("ppf_model"), py::arg("voxel"), py::arg("seed"), py::arg("mutual"),
+        py::arg("reject"), py::arg("max_iterations"), py::arg("tolerance"), py::arg("normal_k"),
+        py::arg("threads"), py::arg("ground_truth"), py::arg("source_path"), py::arg("target_path"),
+        py::arg("read_ms"), py::arg("progress"));
+  m.def("rectify", &rectify_cloud, py::arg("cloud"), py::kw_only(), py::arg("fit"), py::arg("up"),
+        py::arg("seed"), py::arg("cloud_path"));
+  m.def("defaults", &defaults);
+}
+
+}  // namespace align3d::python

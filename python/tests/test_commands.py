@@ -1,0 +1,98 @@
+"""synth, convert, ppf_model, evaluate, demo: the CLI's commands in-process."""
+
+import json
+import warnings
+
+import numpy as np
+import pytest
+
+import align3d
+from conftest import pose_error
+
+
+def test_synth_writes_the_scene_and_returns_scene_json(chapter):
+    directory, info = chapter
+    assert info == json.loads((directory / "scene.json").read_text())
+    assert info["units"] == "mm" and info["seed"] == 39
+    truth = align3d.read_matrix(directory / "ground_truth.txt")
+    np.testing.assert_allclose(truth, info["ground_truth"]["transformation"], atol=1e-15)
+    scan = align3d.read_point_cloud(directory / "scan.ply")
+    assert len(scan) == info["scan"]["points"]
+
+
+def test_synth_parts_and_views(tmp_path):
+    parts = align3d.synth(tmp_path / "parts", scene="parts", points=3000, seed=5)
+    assert parts["scene"] == "parts" and parts["model"]["points"] == 3000
+    views = align3d.synth(tmp_path / "views", scene="views", views=2, angle=30.0)
+    assert len(views["views"]) == 2
+    pair = align3d.read_matrix(tmp_path / "views" / "pair_0_1.txt")  # view_0 ≈ T·view_1
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", align3d.AlignWarning)  # partial views may warn
+        result = align3d.register(tmp_path / "views" / "view_1.pcd",
+                                  tmp_path / "views" / "view_0.pcd")
+    assert pose_error(result.transformation, pair)[0] < 1.0
+
+
+def test_synth_settings_and_output_errors(tmp_path):
+    with pytest.raises(align3d.SettingsError, match=r"--scene") as raised:
+        align3d.synth(tmp_path / "s", scene="forest")
+    assert raised.value.code == 2
+    with pytest.raises(align3d.SettingsError, match=r"--seed"):
+        align3d.synth(tmp_path / "s", seed=-1)
+    with pytest.raises(TypeError):
+        align3d.synth(tmp_path / "s", seed=[1])
+    (tmp_path / "file").write_text("")
+    with pytest.raises(align3d.FileError) as raised:
+        align3d.synth(tmp_path / "file" / "sub")
+    assert raised.value.code == 5 and raised.value.path == str(tmp_path / "file" / "sub")
+
+
+def test_an_outdir_that_looks_like_a_flag_is_a_directory(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    align3d.synth("--help", scene="parts", points=100)
+    assert (tmp_path / "--help" / "scene.json").is_file()
+
+
+def test_convert_keeps_points_and_normals(tmp_path):
+    rng = np.random.default_rng(2)
+    cloud = align3d.PointCloud(rng.uniform(-1, 1, (500, 3)), rng.normal(size=(500, 3)))
+    align3d.write_point_cloud(tmp_path / "c.ply", cloud)
+    align3d.convert(tmp_path / "c.ply", tmp_path / "c.pcd", encoding="binary_compressed")
+    ply, pcd = (align3d.read_point_cloud(tmp_path / n) for n in ("c.ply", "c.pcd"))
+    np.testing.assert_array_equal(pcd.points, ply.points)  # float32 both ways
+    np.testing.assert_allclose(pcd.normals, ply.normals, atol=1e-7)  # renormalised on reading
+    with pytest.warns(align3d.AlignWarning, match=r"text holds no normals"):
+        align3d.convert(tmp_path / "c.pcd", tmp_path / "c.xyz")
+    assert align3d.read_point_cloud(tmp_path / "c.xyz").normals is None
+    with pytest.raises(align3d.SettingsError, match=r"--encoding: PCD has no encoding"):
+        align3d.convert(tmp_path / "c.ply", tmp_path / "d.pcd", encoding="zip")
+
+
+def test_a_ppf_model_registers_scans_onto_its_target(chapter, tmp_path):
+    directory, _ = chapter
+    align3d.ppf_model(directory / "model.ply", tmp_path / "model.ppf")
+    truth = align3d.read_matrix(directory / "ground_truth.txt")
+    result = align3d.register(directory / "scan.ply", directory / "model.ply", init="global",
+                              ppf_model=tmp_path / "model.ppf")
+    assert result.global_stage["method"] == "ppf"
+    assert pose_error(result.transformation, truth)[0] < 0.1
+    with pytest.raises(align3d.FileError, match=r"model.ply.ppf"):
+        align3d.register(directory / "scan.ply", directory / "model.ply",
+                         ppf_model=tmp_path / "model.ply.ppf")
+
+
+def test_evaluate_quick(tmp_path):
+    report = align3d.evaluate(tmp_path / "eval", quick=True, threads=2)
+    assert report["trials"] == 3
+    assert len({row["method"] for row in report["success"]}) == 4  # ICP twice, global, auto
+    assert len({row["scene"] for row in report["success"]}) == 3
+    assert all(0 <= row["successes"] <= row["trials"] == 3 for row in report["success"])
+    assert (tmp_path / "eval" / "basin.png").is_file()
+
+
+def test_demo_reproduces_the_chapter(tmp_path):
+    results = align3d.demo(tmp_path / "demo")
+    assert (tmp_path / "demo" / "report.html").is_file()
+    assert len(results["icp"]) == 5 and len(results["rectify"]) >= 1
+    # The defaults (the fourth experiment) land on the scene's ground truth.
+    assert results["icp"][3]["rotation_error_deg"] < 0.1
