@@ -11,7 +11,8 @@ cd "$(dirname "$0")/.."
 bash scripts/setup.sh
 build_dir=${BUILD_DIR:-build}
 cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=Release \
-  -DALIGN3D_PYTHON="${ALIGN3D_PYTHON:-ON}" -DPython3_EXECUTABLE=/usr/bin/python3 "$@" >/dev/null
+  -DALIGN3D_PYTHON="${ALIGN3D_PYTHON:-ON}" -DPython3_EXECUTABLE=/usr/bin/python3 \
+  -DALIGN3D_BATCH_PYTHON="$PWD/.venv/bin/python" "$@" >/dev/null
 cmake --build "$build_dir" -j "${JOBS:-2}"
 if grep -q '^ALIGN3D_PYTHON:BOOL=ON$' "$build_dir/CMakeCache.txt"; then
   [ -x .venv/bin/python ] || /usr/bin/python3 -m venv --system-site-packages .venv

@@ -46,6 +46,17 @@ std::string read_text(const std::filesystem::path& p) {
 
 int code(ExitCode c) { return static_cast<int>(c); }
 
+// `align3d batch` runs the Python package's engine (its own tests: python/tests/test_batch.py); a
+// Python that cannot be run is a usage error naming ALIGN3D_PYTHON, not a crash.
+TEST(CliBatch, APythonThatCannotRunIsAUsageError) {
+  ::setenv("ALIGN3D_PYTHON", "/nonexistent/python3", 1);
+  const CliRun r = run({"batch", "pairs.csv", "--report-dir", "reports"});
+  ::unsetenv("ALIGN3D_PYTHON");
+  EXPECT_EQ(r.code, code(ExitCode::kUsage));
+  EXPECT_NE(r.err.find("/nonexistent/python3"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("ALIGN3D_PYTHON"), std::string::npos) << r.err;
+}
+
 // One scene shared by the tests of this file (written once, read-only afterwards).
 class Cli : public ::testing::Test {
  protected:

@@ -27,8 +27,17 @@ from ._errors import (
     StrictError,
 )
 from ._register import RectifyResult, Result, rectify, register
+from ._target import Target
 
 __version__: str = _core.__version__
+
+
+def __getattr__(name: str):  # align3d.batch on first use: it imports Dask only then
+    if name == "batch":
+        import importlib
+
+        return importlib.import_module(".batch", __name__)
+    raise AttributeError(f"module 'align3d' has no attribute {name!r}")
 
 __all__ = [
     "AlignWarning",
@@ -41,6 +50,7 @@ __all__ = [
     "Result",
     "SettingsError",
     "StrictError",
+    "Target",
     "convert",
     "demo",
     "evaluate",

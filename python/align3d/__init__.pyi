@@ -140,9 +140,17 @@ def write_point_cloud(path: PathLike, cloud: Union[PointCloud, ArrayLike], *,
                       encoding: Optional[str] = ...) -> None: ...
 def read_matrix(path: PathLike) -> npt.NDArray[np.float64]: ...
 def write_matrix(path: PathLike, transformation: ArrayLike) -> None: ...
+class Target:
+    def __init__(self, cloud: CloudLike, *, normal_k: int = ..., threads: int = ...) -> None: ...
+    @property
+    def path(self) -> str: ...
+    @property
+    def normal_k(self) -> int: ...
+    def __len__(self) -> int: ...
+
 def register(
     source: CloudLike,
-    target: CloudLike,
+    target: Union[CloudLike, Target],
     *,
     init: Union[str, Matrix] = ...,
     method: str = ...,
@@ -154,7 +162,7 @@ def register(
     reject: str = ...,
     max_iterations: int = ...,
     tolerance: float = ...,
-    normal_k: int = ...,
+    normal_k: Optional[int] = ...,
     threads: int = ...,
     ground_truth: Optional[Matrix] = ...,
     output: Optional[PathLike] = ...,

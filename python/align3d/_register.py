@@ -17,6 +17,7 @@ import numpy as np
 
 from . import _core
 from ._cloud import PathLike, PointCloud, as_cloud, matrix, read_point_cloud, write_point_cloud
+from ._target import Target
 from ._errors import AlignWarning, DataError, NoSolutionError, SettingsError, StrictError
 
 _REGISTER = _core.defaults()["register"]
@@ -298,7 +299,7 @@ class RectifyResult(_Report):
 
 def register(
     source: Union[PointCloud, np.ndarray, PathLike],
-    target: Union[PointCloud, np.ndarray, PathLike],
+    target: Union[PointCloud, np.ndarray, PathLike, "Target"],
     *,
     init: Union[str, np.ndarray, PathLike] = _REGISTER["init"],
     method: str = _REGISTER["method"],
@@ -310,7 +311,7 @@ def register(
     reject: str = _REGISTER["reject"],
     max_iterations: int = _REGISTER["max_iterations"],
     tolerance: float = _REGISTER["tolerance"],
-    normal_k: int = _REGISTER["normal_k"],
+    normal_k: Optional[int] = None,
     threads: int = _REGISTER["threads"],
     ground_truth: Optional[Union[np.ndarray, PathLike]] = None,
     output: Optional[PathLike] = None,
@@ -323,7 +324,8 @@ def register(
 
     SOURCE is the measured scan, moved; TARGET the fixed reference (the model). Each is a
     :class:`PointCloud`, an (N, 3) array, or a file name (read as :func:`read_point_cloud` does;
-    the report then shows the path, as the command line's does).
+    the report then shows the path, as the command line's does); TARGET may also be a
+    :class:`Target`, prepared once for many sources (the same pose, less work per call).
 
     Units and convention: distances are in the data's units (mm, m, ...) and every default
     distance follows the data (the object's extent, the target's point spacing, the noise), so
@@ -348,7 +350,8 @@ def register(
       ``"distance:D"`` (data units) or ``"none"``.
     - ``max_iterations``: ICP's cap (of the final stage with ``reject="auto"``);
       ``tolerance``: stop when |ΔRMS| < tolerance·RMS (relative, unit-free).
-    - ``normal_k``: neighbours of the target's PCA normals. ``threads``: 0 uses every core; the
+    - ``normal_k``: neighbours of the target's PCA normals (default 20, or a :class:`Target`'s
+      own). ``threads``: 0 uses every core; the
       result does not depend on it.
     - ``ground_truth``: the true T (4x4 array or file); adds ``rotation_error_deg`` and
       ``translation_error``.
@@ -377,14 +380,23 @@ def register(
         reject=_text("reject", reject),
         max_iterations=_int32("max_iterations", max_iterations),
         tolerance=_real("tolerance", tolerance),
-        normal_k=_int32("normal_k", normal_k),
+        normal_k=_int32(
+            "normal_k",
+            normal_k
+            if normal_k is not None
+            else (target.normal_k if isinstance(target, Target) else _REGISTER["normal_k"]),
+        ),
         threads=_int32("threads", threads),
     )
     if progress is not None and not callable(progress):
         raise TypeError("progress: expected a callable progress(task, done, total)")
     start = time.perf_counter()
     source_cloud, source_path = _load("source", source)
-    target_cloud, target_path = _load("target", target)
+    if isinstance(target, Target):
+        target_handle, target_path = target._target, target.path
+    else:
+        target_cloud, target_path = _load("target", target)
+        target_handle = target_cloud._cloud
     initial_pose = None
     if isinstance(init, str) and init in _INIT_POLICIES:
         policy = init
@@ -396,7 +408,7 @@ def register(
     try:
         text = _core.register(
             source_cloud._cloud,
-            target_cloud._cloud,
+            target_handle,
             init=policy,
             initial_pose=initial_pose,
             ppf_model=None if ppf_model is None else os.fspath(ppf_model),

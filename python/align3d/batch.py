@@ -63,10 +63,7 @@ def register_one(source: Any, target: Any, settings: Dict[str, Any]) -> Dict[str
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # the report's "warnings" holds them
             prepared = _target_for(target, settings)
-            report = register(source, prepared, **settings).to_dict()
-        if _name(target) is not None:
-            report["target"] = _name(target)  # the file, not the prepared cloud
-        return report
+            return register(source, prepared, **settings).to_dict()
     except (Error, OSError, ValueError, TypeError, MemoryError) as e:
         message = str(e)
         if isinstance(e, OSError) and e.filename and str(e.filename) not in message:
@@ -84,8 +81,8 @@ def _run_chunk(chunk: Sequence[Pair], settings: Dict[str, Any]) -> List[Dict[str
     return [register_one(s, t, settings) for s, t in chunk]
 
 
-def _connect(client: Any, workers: Optional[int]) -> Tuple[Any, Any]:
-    """The client to use and what to close afterwards (None when the caller owns it)."""
+def _connect(client: Any, workers: Optional[int]) -> Tuple[Any, List[Any]]:
+    """The client to use and what to close afterwards, in order (nothing the caller owns)."""
     from dask.distributed import Client, LocalCluster
 
     if client is None:
@@ -93,14 +90,15 @@ def _connect(client: Any, workers: Optional[int]) -> Tuple[Any, Any]:
             n_workers=workers or os.cpu_count() or 1,
             threads_per_worker=1,
             processes=True,
-            dashboard_address=None,
+            dashboard_address=":0",  # any free port: no clash with a running cluster
             env={"OMP_NUM_THREADS": "1"},
         )
-        return Client(cluster), cluster
+        own = Client(cluster)
+        return own, [own, cluster]
     if isinstance(client, str):
         own = Client(client)
-        return own, own
-    return client, None
+        return own, [own]
+    return client, []
 
 
 class _Progress:
@@ -171,7 +169,7 @@ def register_pairs(
         return []
     from dask.distributed import as_completed
 
-    dask_client, owned = _connect(client, workers)
+    dask_client, to_close = _connect(client, workers)
     try:
         futures = dask_client.map(_run_chunk, chunks, settings=settings, pure=False)
         index = {f.key: k for k, f in enumerate(futures)}
@@ -185,8 +183,8 @@ def register_pairs(
             bar.advance(len(chunks[k]))
             future.release()
     finally:
-        if owned is not None:
-            owned.close()
+        for c in to_close:
+            c.close()
     return out  # type: ignore[return-value]
 
 

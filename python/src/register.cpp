@@ -80,9 +80,11 @@ std::optional<Eigen::Isometry3d> pose(const py::object& value, const std::string
 // The report text as the command line writes it (report::write_json).
 std::string text(const nlohmann::json& report) { return report.dump(2) + "\n"; }
 
-std::string register_clouds(const PointCloud& source, const PointCloud& target,
-                            const std::string& init, const py::object& initial_pose,
-                            const std::string& method, const std::string& global_method,
+// TARGET: a PointCloud, or a PreparedTarget (the package's Target) built once for many sources.
+template <class Target>
+std::string register_clouds(const PointCloud& source, const Target& target, const std::string& init,
+                            const py::object& initial_pose, const std::string& method,
+                            const std::string& global_method,
                             const std::optional<std::filesystem::path>& ppf_model, double voxel,
                             std::uint64_t seed, bool mutual, const std::string& reject,
                             int max_iterations, double tolerance, int normal_k, int threads,
@@ -158,15 +160,38 @@ py::dict defaults() {
           py::dict(py::arg("fit") = r.robust ? "robust" : "lsq", py::arg("seed") = r.ransac.seed));
 }
 
-}  // namespace
+// The package's Target: a PreparedTarget built with the GIL released.
+void bind_target(py::module_& m) {
+  py::class_<PreparedTarget>(m, "Target")
+      .def(py::init([](const PointCloud& cloud, int normal_k, int threads) {
+             if (normal_k < 3) throw std::invalid_argument("normal_k: must be at least 3");
+             if (threads < 0) throw std::invalid_argument("threads: must be >= 0 (0: all cores)");
+             NormalSettings ns;
+             ns.k = normal_k;
+             py::gil_scoped_release release;
+             return PreparedTarget(cloud, ns, threads);
+           }),
+           py::arg("cloud"), py::kw_only(), py::arg("normal_k"), py::arg("threads"))
+      .def("__len__", &PreparedTarget::size)
+      .def_property_readonly("normal_k", &PreparedTarget::normal_k);
+}
 
-void bind_register(py::module_& m) {
-  m.def("register", &register_clouds, py::arg("source"), py::arg("target"), py::kw_only(),
+template <class Target>
+void def_register(py::module_& m) {
+  m.def("register", &register_clouds<Target>, py::arg("source"), py::arg("target"), py::kw_only(),
         py::arg("init"), py::arg("initial_pose"), py::arg("method"), py::arg("global_method"),
         py::arg("ppf_model"), py::arg("voxel"), py::arg("seed"), py::arg("mutual"),
         py::arg("reject"), py::arg("max_iterations"), py::arg("tolerance"), py::arg("normal_k"),
         py::arg("threads"), py::arg("ground_truth"), py::arg("source_path"), py::arg("target_path"),
         py::arg("read_ms"), py::arg("progress"));
+}
+
+}  // namespace
+
+void bind_register(py::module_& m) {
+  bind_target(m);
+  def_register<PointCloud>(m);
+  def_register<PreparedTarget>(m);
   m.def("rectify", &rectify_cloud, py::arg("cloud"), py::kw_only(), py::arg("fit"), py::arg("up"),
         py::arg("seed"), py::arg("cloud_path"));
   m.def("defaults", &defaults);

@@ -1,8 +1,8 @@
 // align3d batch PAIRS.csv --report-dir DIR ...: the Python package's batch engine on Dask
 // (python/align3d/batch.py), run as `PYTHON -m align3d.batch ARGS...`. The engine is Python
 // because Dask is; this command only finds the interpreter the package was installed for: the
-// environment's ALIGN3D_PYTHON, else the one the build names (ALIGN3D_BATCH_PYTHON: scripts/build.sh
-// sets its .venv/), else python3 on the PATH.
+// environment's ALIGN3D_PYTHON, else the one the build names (ALIGN3D_BATCH_PYTHON:
+// scripts/build.sh sets its .venv/), else python3 on the PATH.
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -39,7 +39,8 @@ int run_batch(const std::vector<std::string>& args, Streams io) {
   io.out.flush();
   io.err.flush();
   const pid_t pid = fork();
-  if (pid < 0) throw Error(ExitCode::kInternal, std::string("batch: fork: ") + std::strerror(errno));
+  if (pid < 0)
+    throw Error(ExitCode::kInternal, std::string("batch: fork: ") + std::strerror(errno));
   if (pid == 0) {
     execvp(c_argv[0], c_argv.data());
     _exit(127);

@@ -12,14 +12,15 @@ int execute(const std::vector<std::string>& args, std::ostream& out, std::ostrea
   CLI::App app{
       "align3d: rigid registration and rectification of 3D point clouds.\n"
       "Transforms map SOURCE into TARGET's frame (target ≈ T·source). Exit codes: 0 ok, 1 internal "
-      "error, 2 usage, 3 input file, 4 unusable data, 5 output file, 6 no solution.",
+      "error, 2 usage, 3 input file, 4 unusable data, 5 output file, 6 no solution, 7 warnings "
+      "with --strict, 8 some pairs of a batch failed.",
       "align3d"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "align3d 0.1.0");
   const Streams io{out, err};
   const Command commands[] = {add_register(app, io), add_synth(app, io),     add_rectify(app, io),
                               add_demo(app, io),     add_ppf_model(app, io), add_evaluate(app, io),
-                              add_convert(app, io)};
+                              add_convert(app, io),  add_batch(app, io)};
 
   try {
     std::vector<std::string> reversed(args.rbegin(), args.rend());  // CLI11 wants them reversed

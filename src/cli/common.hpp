@@ -81,5 +81,6 @@ Command add_demo(CLI::App& app, Streams io);
 Command add_ppf_model(CLI::App& app, Streams io);
 Command add_evaluate(CLI::App& app, Streams io);
 Command add_convert(CLI::App& app, Streams io);
+Command add_batch(CLI::App& app, Streams io);
 
 }  // namespace align3d::cli
