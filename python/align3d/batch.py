@@ -23,7 +23,7 @@ import warnings
 from typing import Any, Dict, Iterable, List, Optional, Sequence, Tuple
 
 from . import _core
-from ._errors import Error
+from ._errors import Error, FileError
 from ._register import register
 
 Pair = Tuple[Any, Any]
@@ -202,16 +202,16 @@ def read_pairs(path: str) -> List[Tuple[str, str, str]]:
         with open(path, newline="", encoding="utf-8") as f:
             rows = [r for r in csv.reader(f) if r and any(c.strip() for c in r)]
     except OSError as e:
-        raise _core_file_error(path, e.strerror or str(e)) from None
+        raise _file_error(path, e.strerror or str(e)) from None
     except (UnicodeDecodeError, csv.Error) as e:
-        raise _core_file_error(path, f"not a CSV text file ({e})") from None
+        raise _file_error(path, f"not a CSV text file ({e})") from None
     if rows and [c.strip().lower() for c in rows[0][:2]] == ["source", "target"]:
         rows = rows[1:]
     out, seen = [], set()
     for n, row in enumerate(rows, start=1):
         cells = [c.strip() for c in row]
         if len(cells) < 2 or not cells[0] or not cells[1] or len(cells) > 3:
-            raise _core_file_error(path, f"row {n}: expected source,target[,report], got {row}")
+            raise _file_error(path, f"row {n}: expected source,target[,report], got {row}")
         src, tgt = (c if os.path.isabs(c) else os.path.join(base, c) for c in cells[:2])
         name = cells[2] if len(cells) == 3 and cells[2] else None
         if name is None:
@@ -220,15 +220,13 @@ def read_pairs(path: str) -> List[Tuple[str, str, str]]:
             if name in seen:
                 name = f"{stem(src)}--{stem(tgt)}-{n}.json"
         if name in seen or os.path.basename(name) != name:
-            raise _core_file_error(path, f"row {n}: report name {name!r} repeats or has a folder")
+            raise _file_error(path, f"row {n}: report name {name!r} repeats or has a folder")
         seen.add(name)
         out.append((src, tgt, name))
     return out
 
 
-def _core_file_error(path: str, problem: str) -> Exception:
-    from ._errors import FileError
-
+def _file_error(path: str, problem: str) -> FileError:
     return FileError(f"{path}: {problem}", path)
 
 

@@ -606,14 +606,8 @@ GlobalResult ppf_register(const PointCloud& source, const PointCloud& target,
                           const GlobalSettings& settings, const GlobalContext& context) {
   const auto start = std::chrono::steady_clock::now();
   // The model description is built from the object (global.hpp), the other cloud is the scene.
-  const CloudScale source_scale = GlobalContext::scale_of(source, context.source, settings.threads);
-  const CloudScale target_scale = GlobalContext::scale_of(target, context.target, settings.threads);
-  const Role object = object_role(source_scale, target_scale);
+  const auto [object, voxel] = plan_global(source, target, settings, context);
   const bool source_is_object = object == Role::kSource;
-  const double voxel = global_voxel(source_scale, target_scale, settings);
-  if (!(voxel > 0) || !std::isfinite(voxel))
-    throw DataError(to_string(object),
-                    "all points are at one spot (no length scale for the voxel)");
   const auto role_named = [](const char* role, auto&& step) {
     try {
       return step();

@@ -431,13 +431,9 @@ GlobalResult fpfh_ransac_register(const PointCloud& source, const PointCloud& ta
   GlobalResult result;
   result.method = GlobalMethod::kFpfh;
   check_sizes(source, target);
-  const CloudScale source_scale = GlobalContext::scale_of(source, context.source, settings.threads);
-  const CloudScale target_scale = GlobalContext::scale_of(target, context.target, settings.threads);
-  const double voxel = global_voxel(source_scale, target_scale, settings);
-  result.object = object_role(source_scale, target_scale);
-  if (!(voxel > 0) || !std::isfinite(voxel))
-    throw DataError(to_string(result.object),
-                    "all points are at one spot (no length scale for the voxel)");
+  const GlobalPlan plan = plan_global(source, target, settings, context);
+  const double voxel = plan.voxel;
+  result.object = plan.object;
   result.voxel = voxel;
   const int threads = settings.threads;
 

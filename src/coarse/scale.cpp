@@ -3,6 +3,7 @@
 
 #include "align3d/cloud_stats.hpp"
 #include "align3d/coarse/global.hpp"
+#include "align3d/error.hpp"
 #include "align3d/kdtree.hpp"
 #include "align3d/se3.hpp"
 #include "detail/parallel.hpp"
@@ -38,12 +39,30 @@ double global_voxel(const CloudScale& source, const CloudScale& target,
                   std::min(kMinVoxelSpacings * spacing, extent / kMaxVoxelsPerExtent));
 }
 
-CloudScale GlobalContext::scale_of(const PointCloud& cloud, const CloudScale* known, int threads) {
+namespace {
+
+// `known`, or the extent of `cloud` and, when `spacing`, its spacing, measured here (the noise is
+// not needed).
+CloudScale scale_of(const PointCloud& cloud, const CloudScale* known, bool spacing, int threads) {
   if (known) return *known;
   CloudScale s;
   s.extent = robust_extent(cloud);
-  if (!cloud.empty()) s.spacing = point_spacing(cloud, KdTree(cloud.positions, threads));
+  if (spacing && !cloud.empty()) s.spacing = point_spacing(cloud, KdTree(cloud.positions, threads));
   return s;
+}
+
+}  // namespace
+
+GlobalPlan plan_global(const PointCloud& source, const PointCloud& target,
+                       const GlobalSettings& settings, const GlobalContext& context) {
+  const bool spacing = !(settings.voxel > 0);
+  const CloudScale s = scale_of(source, context.source, spacing, settings.threads);
+  const CloudScale t = scale_of(target, context.target, spacing, settings.threads);
+  const GlobalPlan plan{object_role(s, t), global_voxel(s, t, settings)};
+  if (!(plan.voxel > 0) || !std::isfinite(plan.voxel))
+    throw DataError(to_string(plan.object),
+                    "all points are at one spot (no length scale for the voxel)");
+  return plan;
 }
 
 Role object_role(const PointCloud& source, const PointCloud& target) {
@@ -53,8 +72,8 @@ Role object_role(const PointCloud& source, const PointCloud& target) {
 double global_voxel(const PointCloud& source, const PointCloud& target,
                     const GlobalSettings& settings) {
   if (settings.voxel > 0) return settings.voxel;
-  return global_voxel(GlobalContext::scale_of(source, nullptr, settings.threads),
-                      GlobalContext::scale_of(target, nullptr, settings.threads), settings);
+  return global_voxel(scale_of(source, nullptr, true, settings.threads),
+                      scale_of(target, nullptr, true, settings.threads), settings);
 }
 
 double surface_fit(const PointCloud& cloud, const PointCloud& other, const KdTree& other_tree,

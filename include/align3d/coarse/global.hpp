@@ -94,9 +94,17 @@ struct GlobalContext {
   const CloudScale* source = nullptr;  // measure_scale() of each cloud
   const CloudScale* target = nullptr;
   GlobalTargetCache* target_cache = nullptr;  // the target's descriptors, kept across calls
-  // `known`, or the extent and spacing of `cloud` measured here (the noise is not needed).
-  static CloudScale scale_of(const PointCloud& cloud, const CloudScale* known, int threads);
 };
+
+// The object and the voxel of a pair, for every method: from the context's scales, or measured
+// here (the spacing only when settings.voxel does not fix the voxel). Throws DataError(object, …)
+// when there is no length scale for the voxel (all points at one spot).
+struct GlobalPlan {
+  Role object = Role::kTarget;
+  double voxel = 0;
+};
+GlobalPlan plan_global(const PointCloud& source, const PointCloud& target,
+                       const GlobalSettings& settings, const GlobalContext& context = {});
 
 // The share of `cloud` points that T lays onto the surface of `other` (`other_tree` indexes it;
 // both clouds have normals): a point of `other` within 1.5 voxels, the moved point within 0.25
