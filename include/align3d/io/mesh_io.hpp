@@ -1,0 +1,67 @@
+// Reading and writing triangle meshes (CAD models). The format is chosen by the file extension
+// (case-insensitive):
+//   .stl              binary or ASCII (told apart by content, not by the word "solid": many binary
+//                     files start with it); every facet's three corners, normals ignored (the
+//                     winding decides, mesh.hpp)
+//   .obj              Wavefront: v x y z [w] and f with 1-based, negative (relative) and v/vt/vn
+//                     indices; polygons fanned into triangles; other statements skipped
+//   .ply              a vertex element (x y z) and a face element (vertex_indices or vertex_index,
+//                     any list count and index type); polygons fanned into triangles
+//   .off              OFF (also COFF, NOFF headers): counts, vertices, polygons fanned
+//   .step .stp .iges .igs  through OpenCASCADE when align3d was built with ALIGN3D_OCCT (every
+//                     solid and face of the file, tessellated to MeshReadSettings' chord
+//                     tolerance); without it an IoError says so
+// Any other extension is an IoError.
+//
+// Contract, as for the point readers (point_cloud_io.hpp): a missing, unreadable, malformed or
+// truncated file throws IoError "<path>: <problem>" naming the line (text) or byte offset (binary);
+// counts a header announces are checked against the file's size before anything is allocated; an
+// index out of range, a non-finite vertex used by a triangle, or a file with no triangle is an
+// IoError too. Running out of memory is a DataError naming the file. Vertices are returned as the
+// file has them (STL: three per facet, unwelded; clean_mesh welds), triangles in file order.
+#pragma once
+
+#include <filesystem>
+#include <optional>
+#include <string>
+
+#include "align3d/mesh.hpp"
+
+namespace align3d::io {
+
+struct MeshReadSettings {
+  // STEP/IGES: the largest distance between the tessellation and the exact surface (data units);
+  // 0: kDefaultChordFraction × the model's bounding-box diagonal. Angular deflection is
+  // kAngularDeflection radians either way.
+  double chord_tolerance = 0;
+};
+inline constexpr double kDefaultChordFraction = 1e-4;
+inline constexpr double kAngularDeflection = 0.2;
+
+struct MeshReadInfo {
+  std::string format;           // "stl-binary", "stl-ascii", "obj", "ply", "off", "step", "iges"
+  double chord_tolerance = 0;   // STEP/IGES: the tolerance used (data units); 0 otherwise
+  std::size_t dropped_faces = 0;  // faces with fewer than 3 corners or a repeated corner
+};
+
+enum class MeshFormat { kStl, kObj, kPly, kOff, kStep, kIges };
+// The mesh format that `path`'s extension names, or nullopt.
+std::optional<MeshFormat> mesh_format(const std::filesystem::path& path);
+
+// Whether align3d can read a mesh from `path`: its extension is .stl .obj .off (.step .stp .iges
+// .igs with OCCT), or .ply and the file's header declares a face element with at least one face.
+// Reads at most the header; false for a file that cannot be opened (the reader then says why).
+bool is_mesh_file(const std::filesystem::path& path);
+
+// Whether this build reads STEP and IGES (ALIGN3D_OCCT).
+bool has_cad_exchange();
+
+TriangleMesh read_mesh(const std::filesystem::path& path, const MeshReadSettings& settings = {},
+                       MeshReadInfo* info = nullptr);
+
+// Writes by extension, atomically (OutputError on failure; nothing left at the destination):
+// .stl binary (float32 corners and facet normals), .ply binary little-endian (float64 vertices,
+// uint32 face lists), .obj, .off (%.17g). STEP and IGES are not written.
+void write_mesh(const std::filesystem::path& path, const TriangleMesh& mesh);
+
+}  // namespace align3d::io
