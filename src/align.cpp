@@ -149,7 +149,7 @@ class Pipeline {
         s_(s),
         source_tree_(source.positions, s.threads),
         source_scale_(measure_scale(source, source_tree_)),
-        reversed_(reverse_icp(source_scale_, target.scale)) {
+        reversed_(!target.refine.surface() && reverse_icp(source_scale_, target.scale)) {
     if (reversed_)
       source_fixed_ = std::make_unique<RefineTarget>(source, s.refine.normals, s.threads);
     refine_ = s.refine;
@@ -343,6 +343,18 @@ AlignResult align(const PointCloud& source, const PointCloud& target,
   check_settings(settings);
   check_registrable(source, "source");  // the source's problems are named first
   detail::TargetSide side(target, settings.refine.normals, settings.threads, false);
+  Pipeline pipeline(source, side, settings);
+  return pipeline.run();
+}
+
+AlignResult align(const PointCloud& source, const TriangleMesh& target,
+                  const AlignSettings& settings) {
+  check_settings(settings);
+  check_registrable(source, "source");
+  if (settings.ppf_model != nullptr)
+    throw std::invalid_argument("align: a ppf_model with a mesh target (prepare the mesh instead)");
+  detail::TargetSide side(std::make_shared<const MeshIndex>(target, settings.threads, "target"),
+                          settings.threads, false);
   Pipeline pipeline(source, side, settings);
   return pipeline.run();
 }

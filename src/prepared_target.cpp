@@ -14,10 +14,27 @@ TargetSide::TargetSide(const PointCloud& target, const NormalSettings& normals, 
   if (shared) refine.estimate_all_normals();
 }
 
+TargetSide::TargetSide(std::shared_ptr<const MeshIndex> surface, int threads, bool shared)
+    : refine(std::move(surface), threads),
+      scale{refine.extent(), refine.spacing(), surface_noise(refine.cloud(), refine.tree())},
+      global(refine.cloud()),
+      shared(shared) {
+  if (shared) refine.estimate_all_normals();
+}
+
 }  // namespace detail
 
 PreparedTarget::PreparedTarget(const PointCloud& target, const NormalSettings& normals, int threads)
     : side_(std::make_shared<detail::TargetSide>(target, normals, threads, true)) {}
+
+PreparedTarget::PreparedTarget(const TriangleMesh& target, int threads)
+    : side_(std::make_shared<detail::TargetSide>(
+          std::make_shared<const MeshIndex>(target, threads, "target"), threads, true)) {}
+
+PreparedTarget::PreparedTarget(std::shared_ptr<const MeshIndex> target, int threads)
+    : side_(std::make_shared<detail::TargetSide>(std::move(target), threads, true)) {}
+
+const MeshIndex* PreparedTarget::surface() const { return side_->refine.surface(); }
 
 const PointCloud& PreparedTarget::cloud() const { return side_->refine.cloud(); }
 

@@ -21,12 +21,13 @@
 //                   (by kClearlyBetter). Two distinct poses supported alike are ambiguous (a
 //                   warning; the initial pose's answer is kept). `path` says which answer was
 //                   kept, `reason` why the global stage ran.
-// ICP direction: when the source is the object and the target is much wider (its robust extent
-// more than kReverseExtentRatio × the source's: a part registered into a scene), ICP runs the other
-// way round, the target onto the source, and its answer is inverted: every scene point near the
-// part then finds a partner on the part's whole surface, where the part's hidden faces would find
-// only clutter and floor in the scene (measured on a generated depth-camera bin: 18° off the
-// right way, 0.16° reversed). `reversed` says so; the refine fields then describe that run.
+// ICP direction: when the target is a point cloud, the source is the object and the target is
+// much wider (its robust extent more than kReverseExtentRatio × the source's: a part registered
+// into a scene), ICP runs the other way round, the target onto the source, and its answer is
+// inverted: every scene point near the part then finds a partner on the part's whole surface, where
+// the part's hidden faces would find only clutter and floor in the scene (measured on a generated
+// depth-camera bin: 18° off the right way, 0.16° reversed). `reversed` says so; the refine fields
+// then describe that run. A mesh target is never reversed: its surface is exact and has no clutter.
 // Whatever the path, a result that may be wrong comes with warnings (never silently): ICP hit its
 // iteration cap, free directions, weak overlap, RMS far above the noise, an ambiguous global pose,
 // a global stage that found nothing in auto mode.
@@ -114,10 +115,17 @@ struct AlignResult {
 // non-finite tolerance or voxel, k below 3, negative threads, ...).
 AlignResult align(const PointCloud& source, const PointCloud& target,
                   const AlignSettings& settings = {});
+// The same onto a mesh (a CAD model): ICP pairs the source with the exact closest points of its
+// triangles, the global stage and the support measure use an even sample of its surface
+// (refine.hpp, RefineTarget); ICP always runs source onto mesh (never reversed). Throws
+// DataError("target", …) for a mesh with nothing to measure (mesh_index.hpp).
+AlignResult align(const PointCloud& source, const TriangleMesh& target,
+                  const AlignSettings& settings = {});
 // The same against a target prepared once for many sources (prepared_target.hpp): the same pose,
 // to the bit. Throws std::invalid_argument when settings.refine.normals.k differs from the
 // target's preparation.
 AlignResult align(const PointCloud& source, const PreparedTarget& target,
                   const AlignSettings& settings = {});
+// (A mesh PreparedTarget too: the same as align(source, mesh).)
 
 }  // namespace align3d

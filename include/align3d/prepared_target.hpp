@@ -15,6 +15,7 @@
 
 #include <memory>
 
+#include "align3d/mesh_index.hpp"
 #include "align3d/normals.hpp"
 #include "align3d/point_cloud.hpp"
 
@@ -31,8 +32,14 @@ class PreparedTarget {
   // the preparation (0: all cores).
   explicit PreparedTarget(const PointCloud& target, const NormalSettings& normals = {},
                           int threads = 0);
+  // A mesh target (a CAD model): registered onto its exact surface (refine.hpp, RefineTarget).
+  // Throws DataError("target", …) for a mesh with nothing to measure (mesh_index.hpp).
+  explicit PreparedTarget(const TriangleMesh& target, int threads = 0);
+  // The same with an index the caller keeps using (inspection measures deviations with it).
+  explicit PreparedTarget(std::shared_ptr<const MeshIndex> target, int threads = 0);
 
-  const PointCloud& cloud() const;  // the target, in spatial order
+  const PointCloud& cloud() const;   // the target in spatial order; a mesh's sample
+  const MeshIndex* surface() const;  // a mesh target's surface, or null
   std::size_t size() const { return cloud().size(); }
   int normal_k() const;
 

@@ -13,6 +13,8 @@ struct TargetSide {
   // `shared`: used by several calls, maybe at once; everything ICP reads is then estimated here
   // (every normal), so the calls only read. Otherwise normals follow the pairs (NormalCache).
   TargetSide(const PointCloud& target, const NormalSettings& normals, int threads, bool shared);
+  // A mesh target: ICP onto its exact surface, the rest on its sample (refine.hpp).
+  TargetSide(std::shared_ptr<const MeshIndex> surface, int threads, bool shared);
 
   static TargetSide& of(const PreparedTarget& t) { return *t.side_; }
 

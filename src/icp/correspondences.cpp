@@ -32,4 +32,28 @@ void find_correspondences(const std::vector<Eigen::Vector3d>& source, const Poin
   });
 }
 
+void find_surface_correspondences(const std::vector<Eigen::Vector3d>& source,
+                                  const MeshIndex& surface, const Eigen::Isometry3d& T,
+                                  double bound, int threads, Correspondences& pairs) {
+  const std::size_t n = source.size();
+  std::vector<SurfacePoint> closest;
+  surface.closest_points(source, T, bound, threads, closest);
+  pairs.target.resize(n);
+  pairs.distance.resize(n);
+  pairs.point.resize(n);
+  pairs.normal.resize(n);
+  parallel_for(n, threads, [&](std::size_t i) {
+    const SurfacePoint& c = closest[i];
+    if (!c.found()) {
+      pairs.target[i] = kNoPartner;
+      pairs.distance[i] = std::numeric_limits<double>::infinity();
+      return;
+    }
+    pairs.target[i] = c.triangle;
+    pairs.distance[i] = std::sqrt(c.sq_distance);
+    pairs.point[i] = c.point;
+    pairs.normal[i] = surface.face_normal(c.triangle);
+  });
+}
+
 }  // namespace align3d

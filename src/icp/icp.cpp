@@ -27,14 +27,39 @@ std::vector<std::uint32_t> missing_normals(const Correspondences& c, double thre
       });
 }
 
-// The loop; point-to-plane takes its normals from `cache` when there is one (estimating those the
-// kept pairs need first), from target.normals otherwise.
-IcpResult run_icp(const PointCloud& source, const PointCloud& target, const KdTree& tree,
-                  const Eigen::Isometry3d& init, const IcpSettings& s, NormalCache* cache) {
-  const std::vector<Eigen::Vector3d>& normals = cache ? cache->normals() : target.normals;
-  const Eigen::Vector3d centre = centroid(target);
+// What a run registers onto: a point cloud with its kd-tree (and a NormalCache when its normals are
+// estimated on demand), or a mesh's exact surface.
+struct Target {
+  const PointCloud* cloud = nullptr;
+  const KdTree* tree = nullptr;
+  NormalCache* cache = nullptr;
+  const MeshIndex* surface = nullptr;
+};
+
+// The centre of the target's box: the update's coordinates are taken about it (conditioning).
+Eigen::Vector3d centre_of(const MeshIndex& surface) {
+  Eigen::Vector3d lo = surface.mesh().vertices[0], hi = lo;
+  for (const Eigen::Vector3d& v : surface.mesh().vertices) {
+    lo = lo.cwiseMin(v);
+    hi = hi.cwiseMax(v);
+  }
+  return 0.5 * (lo + hi);
+}
+
+// The loop; point-to-plane takes its normals from the surface's triangles, from `cache` when there
+// is one (estimating those the kept pairs need first), or from the cloud's normals.
+IcpResult run_icp(const PointCloud& source, const Target& target, const Eigen::Isometry3d& init,
+                  const IcpSettings& s) {
+  NormalCache* cache = target.cache;
+  static const std::vector<Eigen::Vector3d> kNone;
+  const std::vector<Eigen::Vector3d>& normals = cache          ? cache->normals()
+                                                : target.cloud ? target.cloud->normals
+                                                               : kNone;
+  const Eigen::Vector3d centre =
+      target.surface ? centre_of(*target.surface) : centroid(*target.cloud);
   const Eigen::Translation3d to_world(centre);
-  const double diagonal = bounding_box_diagonal(target);
+  const double diagonal =
+      target.surface ? target.surface->diagonal() : bounding_box_diagonal(*target.cloud);
   const TerminationSettings& term = s.termination;
   const std::size_t min_pairs = s.method == IcpMethod::kPointToPoint ? 3 : 6;
 
@@ -54,13 +79,19 @@ IcpResult run_icp(const PointCloud& source, const PointCloud& target, const KdTr
   Correspondences c;
   double previous_rms = std::numeric_limits<double>::quiet_NaN();
   for (;;) {
-    find_correspondences(moving, target, tree, result.T_target_source, s.rejection.search_bound(),
-                         s.threads, c);
+    if (target.surface)
+      find_surface_correspondences(moving, *target.surface, result.T_target_source,
+                                   s.rejection.search_bound(), s.threads, c);
+    else
+      find_correspondences(moving, *target.cloud, *target.tree, result.T_target_source,
+                           s.rejection.search_bound(), s.threads, c);
     const double threshold = rejection_threshold(s.rejection, c);
     if (cache && s.method == IcpMethod::kPointToPlane)
       cache->require(missing_normals(c, threshold, *cache, s.threads));
-    IcpStep step = solve_step(moving, target, normals, c, result.T_target_source, centre, threshold,
-                              s.method, s.robust_scale, s.threads);
+    static const PointCloud kNoCloud;
+    IcpStep step =
+        solve_step(moving, target.cloud ? *target.cloud : kNoCloud, normals, c,
+                   result.T_target_source, centre, threshold, s.method, s.robust_scale, s.threads);
     result.history.push_back({step.rms, step.kept, threshold});
     result.rms = step.rms;
     result.correspondences = step.kept;
@@ -99,14 +130,21 @@ IcpResult icp(const PointCloud& source, const PointCloud& target, const KdTree& 
     throw std::invalid_argument("icp: point-to-plane needs target normals");
   if (tree.size() != target.size())
     throw std::invalid_argument("icp: the kd-tree does not index the target");
-  return run_icp(source, target, tree, init, s, nullptr);
+  return run_icp(source, {&target, &tree, nullptr, nullptr}, init, s);
 }
 
 IcpResult icp(const PointCloud& source, NormalCache& target, const Eigen::Isometry3d& init,
               const IcpSettings& s) {
   if (s.rejection.kind == RejectionRule::Kind::kAuto)
     throw std::invalid_argument("icp: rejection 'auto' is refine()'s schedule, not one ICP run");
-  return run_icp(source, target.cloud(), target.tree(), init, s, &target);
+  return run_icp(source, {&target.cloud(), &target.tree(), &target, nullptr}, init, s);
+}
+
+IcpResult icp(const PointCloud& source, const MeshIndex& target, const Eigen::Isometry3d& init,
+              const IcpSettings& s) {
+  if (s.rejection.kind == RejectionRule::Kind::kAuto)
+    throw std::invalid_argument("icp: rejection 'auto' is refine()'s schedule, not one ICP run");
+  return run_icp(source, {nullptr, nullptr, nullptr, &target}, init, s);
 }
 
 }  // namespace align3d

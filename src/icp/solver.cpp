@@ -10,7 +10,8 @@ namespace align3d {
 namespace {
 
 // Sums over the kept pairs (distance <= threshold), in coordinates about `centre`: `add(sums, p, q,
-// target index, distance)` folds one pair into the metric's sums and returns its squared residual.
+// n, distance)` folds one pair into the metric's sums and returns its squared residual; n is the
+// partner's normal (null when `normals` is empty and the target is not a surface).
 template <class Sums>
 struct PairTotals {
   Sums sums;
@@ -20,16 +21,19 @@ struct PairTotals {
 
 template <class Sums, class Add>
 PairTotals<Sums> reduce_pairs(const std::vector<Eigen::Vector3d>& source, const PointCloud& target,
-                              const Correspondences& c, const Eigen::Isometry3d& T,
-                              const Eigen::Vector3d& centre, double threshold, int threads,
-                              Add add) {
+                              const std::vector<Eigen::Vector3d>& normals, const Correspondences& c,
+                              const Eigen::Isometry3d& T, const Eigen::Vector3d& centre,
+                              double threshold, int threads, Add add) {
+  const bool surface = !c.point.empty();  // a mesh target: the partners themselves are given
   return parallel_reduce(
       source.size(), threads, PairTotals<Sums>{},
       [&](PairTotals<Sums>& a, std::size_t i) {
         if (c.target[i] == kNoPartner || c.distance[i] > threshold) return;
+        const std::size_t j = c.target[i];
         const Eigen::Vector3d p = T * source[i] - centre;
-        const Eigen::Vector3d q = target.positions[c.target[i]] - centre;
-        a.sq_error += add(a.sums, p, q, c.target[i], c.distance[i]);
+        const Eigen::Vector3d q = (surface ? c.point[i] : target.positions[j]) - centre;
+        const Eigen::Vector3d* n = surface ? &c.normal[i] : normals.empty() ? nullptr : &normals[j];
+        a.sq_error += add(a.sums, p, q, n, c.distance[i]);
         ++a.kept;
       },
       [](PairTotals<Sums>& a, const PairTotals<Sums>& b) {
@@ -63,22 +67,22 @@ IcpStep solve_step(const std::vector<Eigen::Vector3d>& source, const PointCloud&
     step.solvable = totals.kept >= min_pairs;
   };
   if (method == IcpMethod::kPointToPoint) {
-    const auto totals =
-        reduce_pairs<KabschAccumulator>(source, target, c, T, centre, threshold, threads,
-                                        [&](KabschAccumulator& sums, const Eigen::Vector3d& p,
-                                            const Eigen::Vector3d& q, std::size_t, double d) {
-                                          sums.add(p, q, weight(d));
-                                          return d * d;
-                                        });
+    const auto totals = reduce_pairs<KabschAccumulator>(
+        source, target, normals, c, T, centre, threshold, threads,
+        [&](KabschAccumulator& sums, const Eigen::Vector3d& p, const Eigen::Vector3d& q,
+            const Eigen::Vector3d*, double d) {
+          sums.add(p, q, weight(d));
+          return d * d;
+        });
     finish(totals, 3);
     if (step.solvable) step.delta = solve_kabsch(totals.sums);
     return step;
   }
   const auto totals = reduce_pairs<LinearSystem6>(
-      source, target, c, T, centre, threshold, threads,
-      [&](LinearSystem6& sums, const Eigen::Vector3d& p, const Eigen::Vector3d& q, std::size_t j,
-          double) {
-        const Eigen::Vector3d& normal = normals[j];
+      source, target, normals, c, T, centre, threshold, threads,
+      [&](LinearSystem6& sums, const Eigen::Vector3d& p, const Eigen::Vector3d& q,
+          const Eigen::Vector3d* n, double) {
+        const Eigen::Vector3d& normal = *n;
         const double r = PointToPlaneFactor::residual(p, q, normal);
         sums.add(PointToPlaneFactor::jacobian(p, normal), r, weight(std::abs(r)));
         return r * r;
@@ -92,10 +96,10 @@ IcpStep solve_step(const std::vector<Eigen::Vector3d>& source, const PointCloud&
     Vector6d aligned = Vector6d::Zero();
     if (a.usable && a.candidate(0)) {
       const auto support = reduce_pairs<AlignedSupport>(
-          source, target, c, T, centre, threshold, threads,
+          source, target, normals, c, T, centre, threshold, threads,
           [&](AlignedSupport& sums, const Eigen::Vector3d& p, const Eigen::Vector3d& q,
-              std::size_t j, double) {
-            const Eigen::Vector3d& normal = normals[j];
+              const Eigen::Vector3d* n, double) {
+            const Eigen::Vector3d& normal = *n;
             const double r = PointToPlaneFactor::residual(p, q, normal);
             const Vector6d J = a.scale.cwiseProduct(PointToPlaneFactor::jacobian(p, normal));
             const double w = weight(std::abs(r));

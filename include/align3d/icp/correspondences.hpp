@@ -1,5 +1,6 @@
 // Correspondence search (chapter 39.1 step 1): each source point, moved by the current pose, is
-// paired with its nearest target point (kd-tree, O(log M) per query).
+// paired with its nearest target point (kd-tree, O(log M) per query), or, for a mesh target, with
+// the exact closest point on its triangles (mesh_index.hpp), not with a sampled vertex.
 #pragma once
 
 #include <Eigen/Geometry>
@@ -8,6 +9,7 @@
 #include <vector>
 
 #include "align3d/kdtree.hpp"
+#include "align3d/mesh_index.hpp"
 #include "align3d/point_cloud.hpp"
 
 namespace align3d {
@@ -19,6 +21,9 @@ constexpr std::size_t kNoPartner = std::numeric_limits<std::size_t>::max();
 struct Correspondences {
   std::vector<std::size_t> target;
   std::vector<double> distance;
+  // A mesh target's partners: the closest point on the surface and its triangle's unit normal
+  // (`target` then holds the triangle). Empty for a point-cloud target.
+  std::vector<Eigen::Vector3d> point, normal;
 };
 
 // Pairs T·source[i] with its nearest target point closer than `bound` (data units; infinity: no
@@ -29,5 +34,11 @@ struct Correspondences {
 void find_correspondences(const std::vector<Eigen::Vector3d>& source, const PointCloud& target,
                           const KdTree& tree, const Eigen::Isometry3d& T, double bound, int threads,
                           Correspondences& pairs);
+
+// Pairs T·source[i] with its closest point on `surface` closer than `bound` (the same contract);
+// consecutive source points close in space make the search cheap (MeshIndex::closest_points).
+void find_surface_correspondences(const std::vector<Eigen::Vector3d>& source,
+                                  const MeshIndex& surface, const Eigen::Isometry3d& T,
+                                  double bound, int threads, Correspondences& pairs);
 
 }  // namespace align3d

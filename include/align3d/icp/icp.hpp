@@ -13,6 +13,7 @@
 #include "align3d/icp/rejection.hpp"
 #include "align3d/icp/termination.hpp"
 #include "align3d/kdtree.hpp"
+#include "align3d/mesh_index.hpp"
 #include "align3d/normals.hpp"
 #include "align3d/point_cloud.hpp"
 #include "align3d/se3.hpp"
@@ -60,6 +61,11 @@ IcpResult icp(const PointCloud& source, const PointCloud& target, const KdTree& 
 // NormalCache): only the target points of kept pairs get one, and the result has the same bits as
 // with every normal estimated first. The cache may be shared by several runs on one target.
 IcpResult icp(const PointCloud& source, NormalCache& target, const Eigen::Isometry3d& init,
+              const IcpSettings& settings);
+
+// The same onto a mesh's exact surface: each source point pairs with its closest point on the
+// triangles (correspondences.hpp), point-to-plane uses that triangle's normal.
+IcpResult icp(const PointCloud& source, const MeshIndex& target, const Eigen::Isometry3d& init,
               const IcpSettings& settings);
 
 }  // namespace align3d

@@ -30,6 +30,7 @@
 
 #include "align3d/icp/icp.hpp"
 #include "align3d/kdtree.hpp"
+#include "align3d/mesh_index.hpp"
 #include "align3d/normals.hpp"
 #include "align3d/point_cloud.hpp"
 
@@ -51,14 +52,29 @@ struct RefineSettings {
 // them (NormalCache). Lifetime: self-contained (copies the cloud). Not copyable or movable (the
 // cache refers to the copy). Thread-safety: one refinement at a time; any number at once after
 // estimate_all_normals() (everything a refinement reads is then measured: PreparedTarget).
+//
+// A mesh target (a CAD model) is registered onto its exact surface: ICP pairs each source point
+// with its closest point on the triangles (icp.hpp). What needs points (the schedule's spacing, the
+// global stage, the support measure) uses an even sample of the surface by area (sample_surface,
+// mesh.hpp, with the triangles' normals): one point per (diagonal / kMeshSampleDivisions)² of area,
+// kMinMeshSamples to kMaxMeshSamples points, seeded by kMeshSampleSeed (the same mesh gives the
+// same sample).
+inline constexpr double kMeshSampleDivisions = 400;
+inline constexpr std::size_t kMinMeshSamples = 20000;
+inline constexpr std::size_t kMaxMeshSamples = 400000;
+inline constexpr std::uint64_t kMeshSampleSeed = 1;
+
 class RefineTarget {
  public:
   RefineTarget(const PointCloud& target, const NormalSettings& normals = {}, int threads = 0);
+  // A mesh target; shares `surface`.
+  explicit RefineTarget(std::shared_ptr<const MeshIndex> surface, int threads = 0);
   ~RefineTarget();
   RefineTarget(const RefineTarget&) = delete;
   RefineTarget& operator=(const RefineTarget&) = delete;
 
-  const PointCloud& cloud() const { return cloud_; }  // the spatially ordered copy
+  const PointCloud& cloud() const { return cloud_; }  // the spatially ordered copy (or sample)
+  const MeshIndex* surface() const { return surface_.get(); }  // null for a point-cloud target
   const KdTree& tree() const { return *tree_; }
   int normal_k() const { return normal_k_; }
   // The normal of every point in `indices` of cloud() (estimated first where needed), then all
@@ -72,6 +88,7 @@ class RefineTarget {
 
  private:
   PointCloud cloud_;
+  std::shared_ptr<const MeshIndex> surface_;
   std::unique_ptr<KdTree> tree_;
   std::unique_ptr<NormalCache> cache_;
   int normal_k_ = 20;

@@ -27,8 +27,9 @@ struct IcpStep {
 // Evaluates the pairs (T·source[i], target[pairs.target[i]]) with distance <= threshold in
 // coordinates about `centre` (the sums stay conditioned far from the origin) and solves for the
 // update. `normals` (one per target point, meaningful where pairs land) is read for
-// point-to-plane only. robust_scale > 0 weights pairs by the Geman-McClure kernel of that scale.
-// Deterministic for any `threads`.
+// point-to-plane only. When the pairs carry their partners (pairs.point: a mesh target), those
+// and pairs.normal are used instead of `target` and `normals`. robust_scale > 0 weights pairs by
+// the Geman-McClure kernel of that scale. Deterministic for any `threads`.
 IcpStep solve_step(const std::vector<Eigen::Vector3d>& source, const PointCloud& target,
                    const std::vector<Eigen::Vector3d>& normals, const Correspondences& pairs,
                    const Eigen::Isometry3d& T, const Eigen::Vector3d& centre, double threshold,
