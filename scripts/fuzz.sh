@@ -4,14 +4,15 @@
 # (fuzz/corpus/<format>; the repository's corpus is never grown). Exits non-zero when any target
 # reports a crash, a leak, a timeout or an out-of-memory; the reproducer is kept in
 # $BUILD_DIR/findings/<target>/.
-# Usage: scripts/fuzz.sh [SECONDS] [TARGET...]   (targets: ply pcd xyz matrix; default all)
+# Usage: scripts/fuzz.sh [SECONDS] [TARGET...]   (targets: ply pcd xyz matrix stl obj off ply_mesh;
+# default all)
 # Environment: BUILD_DIR (default build-fuzz), JOBS (default 2)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds=${1:-60}
 shift || true
 targets=("$@")
-((${#targets[@]})) || targets=(ply pcd xyz matrix)
+((${#targets[@]})) || targets=(ply pcd xyz matrix stl obj off ply_mesh)
 bash scripts/setup.sh clang libclang-rt-14-dev
 bash scripts/setup.sh  # the library's own dependencies (find_package at configure time)
 

@@ -552,10 +552,14 @@ class CliConvertError : public ::testing::Test {
 };
 
 TEST_F(CliConvertError, UnknownExtensions) {
-  write_text(d_ / "in.obj", "v 1 2 3\n");
+  write_text(d_ / "in.3ds", "v 1 2 3\n");
   expected_files_ = 3;
+  expect_error((d_ / "in.3ds").string(), (d_ / "out.ply").string(), {}, ExitCode::kInput,
+               "in.3ds: unknown format '.3ds'");
+  write_text(d_ / "in.obj", "v 1 2 3\n");  // read as a mesh: vertices but no face
+  expected_files_ = 4;
   expect_error((d_ / "in.obj").string(), (d_ / "out.ply").string(), {}, ExitCode::kInput,
-               "in.obj: unknown point cloud format '.obj'");
+               "in.obj: contains no triangles");
   expect_error((d_ / "in.ply").string(), (d_ / "out.obj").string(), {}, ExitCode::kOutput,
                "out.obj: cannot write: unknown point cloud format");
 }

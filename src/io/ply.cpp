@@ -1,7 +1,9 @@
 // PLY, as described by Greg Turk's "The PLY Polygon File Format" (the de-facto spec): a text header
 // declaring elements (name, record count) and their properties (scalar or list), then the records
-// of each element in header order, as text lines or packed little/big-endian binary.
+// of each element in header order, as text lines or packed little/big-endian binary. A point cloud
+// is the vertex element's x y z (nx ny nz); a mesh adds the face element's lists of corner indices.
 #include <cmath>
+#include <limits>
 #include <string>
 #include <type_traits>
 #include <utility>
@@ -9,6 +11,7 @@
 #include "align3d/io/atomic_file.hpp"
 #include "align3d/io/point_cloud_io.hpp"
 #include "io_detail.hpp"
+#include "mesh_readers.hpp"
 
 namespace align3d::io {
 namespace {
@@ -190,6 +193,63 @@ VertexLayout vertex_layout(const std::filesystem::path& path, const PlyElement& 
   return layout;
 }
 
+constexpr std::size_t kNone = std::numeric_limits<std::size_t>::max();
+
+std::size_t find_element(const PlyHeader& header, std::string_view name) {
+  for (std::size_t e = 0; e < header.elements.size(); ++e) {
+    if (header.elements[e].name == name) return e;
+  }
+  return kNone;
+}
+
+// The face element's list of corner indices: "vertex_indices" (the spec's name) or "vertex_index"
+// (some exporters'); kNone if there is none.
+std::size_t find_corner_list(const PlyElement& face) {
+  for (const std::string_view name : {"vertex_indices", "vertex_index"}) {
+    for (std::size_t i = 0; i < face.properties.size(); ++i) {
+      if (face.properties[i].name == name) return i;
+    }
+  }
+  return kNone;
+}
+
+// What a reader takes from the body: the vertex element's x y z (nx ny nz) and, for a mesh, the
+// face element's corner lists. Every element up to the last of these is read (the others checked
+// and skipped); reading stops there, as later elements cannot change the result.
+struct BodyPlan {
+  std::size_t vertex = kNone;  // element indices
+  VertexLayout layout;
+  std::size_t face = kNone;
+  std::size_t corner_list = kNone;  // property index within the face element
+
+  std::size_t last() const { return face == kNone ? vertex : std::max(vertex, face); }
+};
+
+BodyPlan plan_body(const std::filesystem::path& path, const PlyHeader& header, bool faces) {
+  BodyPlan plan;
+  plan.vertex = find_element(header, "vertex");
+  if (plan.vertex == kNone) fail(path, "no vertex element in the header");
+  plan.layout = vertex_layout(path, header.elements[plan.vertex]);
+  if (!faces) return plan;
+  plan.face = find_element(header, "face");
+  if (plan.face == kNone) fail(path, "no face element in the header (a point cloud, not a mesh)");
+  const PlyElement& face = header.elements[plan.face];
+  plan.corner_list = find_corner_list(face);
+  if (plan.corner_list == kNone) {
+    fail(path, "element 'face' has no property 'vertex_indices' (or 'vertex_index')");
+  }
+  const PlyProperty& list = face.properties[plan.corner_list];
+  if (!list.is_list) {
+    fail(path, "property '" + list.name + "' of element 'face' is not a list");
+  }
+  if (!detail::is_integer(list.type)) {
+    fail(path, "property '" + list.name +
+                   "' of element 'face' must hold integers (it is a list "
+                   "of floating-point values)");
+  }
+  return plan;
+}
+
 // ---- binary ----
 
 std::string record_name(const PlyElement& element, std::uint64_t record) {
@@ -214,13 +274,51 @@ bool load_count(const char* p, ScalarType type, std::uint64_t& count) {
   });
 }
 
+// A corner index of any integer type (plan_body refuses the others). A uint64 beyond int64's range
+// is out of range anyway, and kept so.
+template <bool kSwap>
+std::int64_t load_index(const char* p, ScalarType type) {
+  return detail::visit_scalar(type, [&](auto t) -> std::int64_t {
+    using T = decltype(t);
+    if constexpr (std::is_floating_point_v<T>) {
+      return -1;
+    } else if constexpr (std::is_same_v<T, std::uint64_t>) {
+      const T value = detail::load<T, kSwap>(p);
+      return value > static_cast<T>(std::numeric_limits<std::int64_t>::max())
+                 ? std::numeric_limits<std::int64_t>::max()
+                 : static_cast<std::int64_t>(value);
+    } else {
+      return static_cast<std::int64_t>(detail::load<T, kSwap>(p));
+    }
+  });
+}
+
+// Reads `count` list items of `type` into `items`, as many at a time as the buffer holds.
+template <bool kSwap, typename Truncated>
+void load_items(detail::BlockReader& in, std::uint64_t count, ScalarType type,
+                std::vector<std::int64_t>& items, const Truncated& truncated) {
+  const std::size_t item_size = detail::scalar_size(type);
+  const std::size_t batch = std::max<std::size_t>(1, in.capacity() / item_size);
+  for (std::uint64_t left = count; left > 0;) {
+    const auto n = static_cast<std::size_t>(std::min<std::uint64_t>(left, batch));
+    const std::string_view data = in.peek(n * item_size);
+    if (data.size() < n * item_size) truncated();
+    for (std::size_t j = 0; j < n; ++j) {
+      items.push_back(load_index<kSwap>(data.data() + j * item_size, type));
+    }
+    in.consume(n * item_size);
+    left -= n;
+  }
+}
+
 // Reads one record of an element that has list properties, property by property, storing the
-// value of property i in values[component[i]] when component[i] < 6. Lists are skipped unread
-// (align3d uses no list), each count checked against what the file holds first, so a lying count is
-// an error, never a long read.
+// value of property i in values[component[i]] when component[i] < 6. Lists are skipped unread, each
+// count checked against what the file holds first, so a lying count is an error, never a long
+// read; except the list of property `kept_list`, whose items go to `items` (a face's corners).
 template <bool kSwap>
 void walk_record(detail::BlockReader& in, const PlyElement& element, std::uint64_t record,
-                 const std::vector<std::size_t>& component, std::array<double, 6>& values) {
+                 const std::vector<std::size_t>& component, std::array<double, 6>& values,
+                 std::size_t kept_list = kNone, std::vector<std::int64_t>* items = nullptr) {
   const auto truncated = [&] {
     fail(in.path(), "truncated data at byte offset " + std::to_string(in.offset()) + " (" +
                         record_name(element, record) + ")");
@@ -251,61 +349,101 @@ void walk_record(detail::BlockReader& in, const PlyElement& element, std::uint64
       fail(in.path(), "list count " + std::to_string(count) + at + " exceeds the " +
                           std::to_string(in.remaining()) + " bytes remaining");
     }
-    if (in.skip(count * item_size) < count * item_size) truncated();
+    if (i == kept_list) {
+      items->clear();
+      load_items<kSwap>(in, count, property.type, *items, truncated);
+    } else if (in.skip(count * item_size) < count * item_size) {
+      truncated();
+    }
   }
 }
 
+// The number of bytes a record of `element` takes at least, after checking that the element's
+// records can fit in what the file has left: a count the file cannot hold is refused before
+// anything is allocated for it. `element` has properties.
+std::size_t check_binary_count(detail::BlockReader& in, const PlyElement& element) {
+  const std::size_t min_bytes = element.min_record_bytes();
+  const std::uint64_t left = in.remaining();
+  if (element.count > left / min_bytes) {
+    fail(in.path(), "element '" + element.name + "' announces " + std::to_string(element.count) +
+                        " records of " + (element.has_list() ? "at least " : "") +
+                        std::to_string(min_bytes) + " bytes at byte offset " +
+                        std::to_string(in.offset()) + ", but only " + std::to_string(left) +
+                        " bytes remain (truncated file?)");
+  }
+  return min_bytes;
+}
+
 template <bool kSwap>
-void read_binary(detail::BlockReader& in, const PlyHeader& header, std::size_t vertex_index,
-                 const VertexLayout& layout, CloudBuilder& builder) {
-  // Elements after the vertex element cannot change the points, so reading stops there.
-  for (std::size_t e = 0; e <= vertex_index; ++e) {
+void skip_binary_element(detail::BlockReader& in, const PlyElement& element,
+                         std::size_t min_bytes) {
+  if (!element.has_list()) {
+    const std::uint64_t bytes = element.count * min_bytes;
+    if (in.skip(bytes) < bytes) {
+      fail(in.path(), "truncated data at byte offset " + std::to_string(in.offset()) +
+                          " (element '" + element.name + "')");
+    }
+    return;
+  }
+  const std::vector<std::size_t> component(element.properties.size(), 6);
+  std::array<double, 6> unused{};
+  for (std::uint64_t r = 0; r < element.count; ++r) {
+    walk_record<kSwap>(in, element, r, component, unused);
+  }
+}
+
+// The vertex element: sink.vertex(v) for each record, v holding x y z (nx ny nz) by component;
+// records without lists go to sink.packed_vertices in bulk.
+template <bool kSwap, typename Sink>
+void read_binary_vertices(detail::BlockReader& in, const PlyElement& element,
+                          const VertexLayout& layout, std::size_t min_bytes, Sink& sink) {
+  const std::size_t components = layout.normals ? 6 : 3;
+  sink.reserve_vertices(element.count);
+  // A record longer than the buffer cannot be decoded from it; PLY headers are too short to
+  // declare one (kMaxHeaderBytes), but walking it would still be right.
+  if (!element.has_list() && min_bytes <= in.capacity()) {
+    detail::RecordLayout records{min_bytes, {}, layout.normals};
+    for (std::size_t k = 0; k < components; ++k) {
+      for (std::size_t i = 0; i < layout.index[k]; ++i) {
+        records.fields[k].offset += detail::scalar_size(element.properties[i].type);
+      }
+      records.fields[k].type = element.properties[layout.index[k]].type;
+    }
+    sink.template packed_vertices<kSwap>(in, element.count, records,
+                                         "element '" + element.name + "'");
+    return;
+  }
+  std::vector<std::size_t> component(element.properties.size(), 6);
+  for (std::size_t k = 0; k < components; ++k) component[layout.index[k]] = k;
+  std::array<double, 6> v{};
+  for (std::uint64_t r = 0; r < element.count; ++r) {
+    walk_record<kSwap>(in, element, r, component, v);
+    sink.vertex(v);
+  }
+}
+
+template <bool kSwap, typename Sink>
+void read_binary(detail::BlockReader& in, const PlyHeader& header, const BodyPlan& plan,
+                 Sink& sink) {
+  std::vector<std::int64_t> corners;
+  for (std::size_t e = 0; e <= plan.last(); ++e) {
     const PlyElement& element = header.elements[e];
-    const bool is_vertex = e == vertex_index;
     if (element.properties.empty()) continue;  // records of zero bytes
-    const std::size_t min_bytes = element.min_record_bytes();
-    const std::uint64_t left = in.remaining();
-    if (element.count > left / min_bytes) {
-      fail(in.path(), "element '" + element.name + "' announces " + std::to_string(element.count) +
-                          " records of " + (element.has_list() ? "at least " : "") +
-                          std::to_string(min_bytes) + " bytes at byte offset " +
-                          std::to_string(in.offset()) + ", but only " + std::to_string(left) +
-                          " bytes remain (truncated file?)");
-    }
-    if (is_vertex) builder.reserve(static_cast<std::size_t>(element.count));
-    if (!element.has_list()) {
-      const std::uint64_t bytes = element.count * min_bytes;
-      if (!is_vertex) {
-        if (in.skip(bytes) < bytes) {
-          fail(in.path(), "truncated data at byte offset " + std::to_string(in.offset()) +
-                              " (element '" + element.name + "')");
-        }
-        continue;
+    const std::size_t min_bytes = check_binary_count(in, element);
+    if (e == plan.vertex) {
+      read_binary_vertices<kSwap>(in, element, plan.layout, min_bytes, sink);
+      sink.vertices_done();
+    } else if (e == plan.face) {
+      sink.reserve_faces(element.count);
+      const std::vector<std::size_t> component(element.properties.size(), 6);
+      std::array<double, 6> unused{};
+      for (std::uint64_t r = 0; r < element.count; ++r) {
+        const detail::FaceLocation where{in.offset(), r};
+        walk_record<kSwap>(in, element, r, component, unused, plan.corner_list, &corners);
+        sink.face(corners, where);
       }
-      detail::RecordLayout records{min_bytes, {}, layout.normals};
-      for (std::size_t k = 0; k < (layout.normals ? 6u : 3u); ++k) {
-        for (std::size_t i = 0; i < layout.index[k]; ++i) {
-          records.fields[k].offset += detail::scalar_size(element.properties[i].type);
-        }
-        records.fields[k].type = element.properties[layout.index[k]].type;
-      }
-      detail::decode_records<kSwap>(in, element.count, records, builder,
-                                    "element '" + element.name + "'");
-      continue;
-    }
-    std::vector<std::size_t> component(element.properties.size(), 6);
-    if (is_vertex) {
-      for (std::size_t k = 0; k < (layout.normals ? 6u : 3u); ++k) component[layout.index[k]] = k;
-    }
-    std::array<double, 6> v{};
-    for (std::uint64_t r = 0; r < element.count; ++r) {
-      walk_record<kSwap>(in, element, r, component, v);
-      if (!is_vertex) continue;
-      if (layout.normals) {
-        builder.add(v[0], v[1], v[2], v[3], v[4], v[5]);
-      } else {
-        builder.add(v[0], v[1], v[2]);
-      }
+    } else {
+      skip_binary_element<kSwap>(in, element, min_bytes);
     }
   }
 }
@@ -313,10 +451,12 @@ void read_binary(detail::BlockReader& in, const PlyHeader& header, std::size_t v
 // ---- ascii ----
 
 // Parses one text record of `element` into `values` (by property; a list's values are checked and
-// skipped, as are all values of elements other than the vertex).
+// skipped, as are all values of elements other than the vertex), except the list of property
+// `kept_list`, whose items (integers) go to `items`.
 void parse_ascii_record(const std::filesystem::path& path, std::string_view line,
                         std::size_t number, const PlyElement& element, bool is_vertex,
-                        std::vector<double>& values) {
+                        std::vector<double>& values, std::size_t kept_list = kNone,
+                        std::vector<std::int64_t>* items = nullptr) {
   // Built only on error: one string per record would dominate the parse time.
   const auto where = [&] { return "line " + std::to_string(number) + ": "; };
   std::size_t pos = 0;
@@ -353,11 +493,25 @@ void parse_ascii_record(const std::filesystem::path& path, std::string_view line
       pos = token_pos;
       bad("bad list count");
     }
+    if (i == kept_list) items->clear();
     for (auto k = static_cast<std::size_t>(number_value); k > 0; --k) {
-      if (detail::next_token(line, pos, detail::kSpace).empty()) {
+      const std::size_t item_pos = pos;
+      const std::string_view item = detail::next_token(line, pos, detail::kSpace);
+      if (item.empty()) {
         fail(path, where() + "too few values for list '" + property.name + "' (announced " +
                        std::to_string(static_cast<std::size_t>(number_value)) + ")");
       }
+      if (i != kept_list) continue;
+      std::int64_t index = 0;
+      const auto [end, ec] = std::from_chars(item.data(), item.data() + item.size(), index);
+      if (ec == std::errc::result_out_of_range) {
+        index = item[0] == '-' ? std::numeric_limits<std::int64_t>::min()
+                               : std::numeric_limits<std::int64_t>::max();
+      } else if (ec != std::errc() || end != item.data() + item.size()) {
+        pos = item_pos;
+        bad("bad vertex index");
+      }
+      items->push_back(index);
     }
   }
   if (!detail::next_token(line, pos, detail::kSpace).empty()) {
@@ -366,27 +520,34 @@ void parse_ascii_record(const std::filesystem::path& path, std::string_view line
   }
 }
 
-void read_ascii(detail::LineReader& lines, const PlyHeader& header, std::size_t vertex_index,
-                const VertexLayout& layout, CloudBuilder& builder) {
+template <typename Sink>
+void read_ascii(detail::LineReader& lines, const PlyHeader& header, const BodyPlan& plan,
+                Sink& sink) {
   const std::filesystem::path& path = lines.input().path();
   std::vector<double> values;
-  for (std::size_t e = 0; e <= vertex_index; ++e) {
+  std::vector<std::int64_t> corners;
+  for (std::size_t e = 0; e <= plan.last(); ++e) {
     const PlyElement& element = header.elements[e];
-    const bool is_vertex = e == vertex_index;
+    const bool is_vertex = e == plan.vertex;
+    const bool is_face = e == plan.face;
     if (element.properties.empty()) continue;
-    if (is_vertex) {
+    if (is_vertex || is_face) {
       // Every value takes at least one character and one separator (the last line may lack its
       // newline, hence the + 1).
       const std::uint64_t left = lines.input().remaining();
       const std::size_t min_bytes = 2 * element.properties.size();
       if (element.count > (left + 1) / min_bytes) {
-        fail(path, "element 'vertex' announces " + std::to_string(element.count) +
+        fail(path, "element '" + element.name + "' announces " + std::to_string(element.count) +
                        " records, but the " + std::to_string(left) + " bytes after line " +
                        std::to_string(header.line_count) + " can hold at most " +
                        std::to_string((left + 1) / min_bytes) + " (truncated file?)");
       }
-      builder.reserve(static_cast<std::size_t>(element.count));
-      values.resize(element.properties.size());
+      if (is_vertex) {
+        sink.reserve_vertices(element.count);
+        values.resize(element.properties.size());
+      } else {
+        sink.reserve_faces(element.count);
+      }
     }
     std::string_view line;
     for (std::uint64_t r = 0; r < element.count; ++r) {
@@ -398,18 +559,106 @@ void read_ascii(detail::LineReader& lines, const PlyHeader& header, std::size_t 
         }
       } while (detail::is_blank(line));
       detail::check_line_length(path, line, lines.number(), detail::kMaxRecordLineBytes);
+      if (is_face) {
+        parse_ascii_record(path, line, lines.number(), element, false, values, plan.corner_list,
+                           &corners);
+        sink.face(corners, {lines.number(), r});
+        continue;
+      }
       parse_ascii_record(path, line, lines.number(), element, is_vertex, values);
       if (!is_vertex) continue;
-      const auto v = [&](std::size_t k) {
-        const std::size_t i = layout.index[k];
-        return detail::as_stored(values[i], element.properties[i].type);
-      };
-      if (layout.normals) {
-        builder.add(v(0), v(1), v(2), v(3), v(4), v(5));
-      } else {
-        builder.add(v(0), v(1), v(2));
+      std::array<double, 6> v{};
+      for (std::size_t k = 0; k < (plan.layout.normals ? 6u : 3u); ++k) {
+        const std::size_t i = plan.layout.index[k];
+        v[k] = detail::as_stored(values[i], element.properties[i].type);
       }
+      sink.vertex(v);
     }
+    if (is_vertex) sink.vertices_done();
+  }
+}
+
+// ---- what the body goes to ----
+
+// A point cloud: vertices only (plan.face is kNone, so face() is never called).
+class CloudSink {
+ public:
+  CloudSink(CloudBuilder& builder, bool normals) : builder_(builder), normals_(normals) {}
+  void reserve_vertices(std::uint64_t count) { builder_.reserve(static_cast<std::size_t>(count)); }
+  void reserve_faces(std::uint64_t) {}
+  void vertices_done() {}
+  void vertex(const std::array<double, 6>& v) {
+    if (normals_) {
+      builder_.add(v[0], v[1], v[2], v[3], v[4], v[5]);
+    } else {
+      builder_.add(v[0], v[1], v[2]);
+    }
+  }
+  template <bool kSwap>
+  void packed_vertices(detail::BlockReader& in, std::uint64_t count,
+                       const detail::RecordLayout& records, const std::string& what) {
+    detail::decode_records<kSwap>(in, count, records, builder_, what);
+  }
+  void face(const std::vector<std::int64_t>&, const detail::FaceLocation&) {}
+
+ private:
+  CloudBuilder& builder_;
+  bool normals_;
+};
+
+// A mesh: x y z and the faces' corners.
+class MeshSink {
+ public:
+  explicit MeshSink(detail::MeshBuilder& builder) : builder_(builder) {}
+  void reserve_vertices(std::uint64_t count) { builder_.reserve(count, 0); }
+  void reserve_faces(std::uint64_t count) { builder_.reserve(0, count); }
+  void vertices_done() { builder_.vertices_done(); }
+  void vertex(const std::array<double, 6>& v) { builder_.add_vertex(v[0], v[1], v[2]); }
+  // Records of fixed size, many decoded from the buffer at a time.
+  template <bool kSwap>
+  void packed_vertices(detail::BlockReader& in, std::uint64_t count,
+                       const detail::RecordLayout& records, const std::string& what) {
+    const std::size_t stride = records.stride;
+    const auto& f = records.fields;
+    for (std::uint64_t r = 0; r < count;) {
+      const std::string_view data = in.peek(stride);
+      if (data.size() < stride) {
+        fail(in.path(),
+             "truncated data at byte offset " + std::to_string(in.offset()) + " (" + what + ")");
+      }
+      const auto n =
+          static_cast<std::size_t>(std::min<std::uint64_t>(count - r, data.size() / stride));
+      for (std::size_t i = 0; i < n; ++i) {
+        const char* record = data.data() + i * stride;
+        builder_.add_vertex(detail::load_scalar<kSwap>(record + f[0].offset, f[0].type),
+                            detail::load_scalar<kSwap>(record + f[1].offset, f[1].type),
+                            detail::load_scalar<kSwap>(record + f[2].offset, f[2].type));
+      }
+      in.consume(n * stride);
+      r += n;
+    }
+  }
+  void face(const std::vector<std::int64_t>& corners, const detail::FaceLocation& where) {
+    builder_.add_face(corners, where);
+  }
+
+ private:
+  detail::MeshBuilder& builder_;
+};
+
+template <typename Sink>
+void read_body(detail::LineReader& lines, const PlyHeader& header, const BodyPlan& plan,
+               Sink& sink) {
+  switch (header.format) {
+    case PlyFormat::kAscii:
+      read_ascii(lines, header, plan, sink);
+      break;
+    case PlyFormat::kBinaryLittleEndian:
+      read_binary<detail::kHostIsBigEndian>(lines.input(), header, plan, sink);
+      break;
+    case PlyFormat::kBinaryBigEndian:
+      read_binary<!detail::kHostIsBigEndian>(lines.input(), header, plan, sink);
+      break;
   }
 }
 
@@ -420,33 +669,41 @@ namespace detail {
 PointCloud read_ply(BlockReader& in, ReadInfo& info) {
   LineReader lines(in);
   const PlyHeader header = parse_header(lines);
-  std::size_t vertex_index = header.elements.size();
-  for (std::size_t e = 0; e < header.elements.size(); ++e) {
-    if (header.elements[e].name == "vertex") {
-      vertex_index = e;
-      break;
-    }
-  }
-  if (vertex_index == header.elements.size()) fail(in.path(), "no vertex element in the header");
-  const VertexLayout layout = vertex_layout(in.path(), header.elements[vertex_index]);
-
-  CloudBuilder builder(in.path(), layout.normals);
-  switch (header.format) {
-    case PlyFormat::kAscii:
-      read_ascii(lines, header, vertex_index, layout, builder);
-      break;
-    case PlyFormat::kBinaryLittleEndian:
-      read_binary<kHostIsBigEndian>(in, header, vertex_index, layout, builder);
-      break;
-    case PlyFormat::kBinaryBigEndian:
-      read_binary<!kHostIsBigEndian>(in, header, vertex_index, layout, builder);
-      break;
-  }
-  info.width = header.elements[vertex_index].count;
+  const BodyPlan plan = plan_body(in.path(), header, false);
+  CloudBuilder builder(in.path(), plan.layout.normals);
+  CloudSink sink(builder, plan.layout.normals);
+  read_body(lines, header, plan, sink);
+  info.width = header.elements[plan.vertex].count;
   info.height = 1;
   PointCloud cloud = builder.finish();
   info.dropped_non_finite = builder.dropped();
   return cloud;
+}
+
+TriangleMesh read_ply_mesh(BlockReader& in, MeshReadInfo& info) {
+  LineReader lines(in);
+  const PlyHeader header = parse_header(lines);
+  const BodyPlan plan = plan_body(in.path(), header, true);
+  const bool ascii = header.format == PlyFormat::kAscii;
+  MeshBuilder builder(in.path(), [ascii](const FaceLocation& where) {
+    return ascii ? "line " + std::to_string(where.position) + " (element 'face', record " +
+                       std::to_string(where.face) + ")"
+                 : "byte offset " + std::to_string(where.position) + " (element 'face', record " +
+                       std::to_string(where.face) + ")";
+  });
+  MeshSink sink(builder);
+  read_body(lines, header, plan, sink);
+  info.format = "ply";
+  info.dropped_faces = builder.dropped_faces();
+  return builder.finish();
+}
+
+bool ply_declares_faces(BlockReader& in) {
+  LineReader lines(in);
+  const PlyHeader header = parse_header(lines);
+  const std::size_t face = find_element(header, "face");
+  return face != kNone && header.elements[face].count > 0 &&
+         find_corner_list(header.elements[face]) != kNone;
 }
 
 }  // namespace detail
@@ -487,4 +744,31 @@ void write_ply(const std::filesystem::path& path, const PointCloud& cloud, PlyEn
   });
 }
 
+namespace detail {
+
+void write_ply_mesh(const std::filesystem::path& path, const TriangleMesh& mesh) {
+  const std::string header =
+      "ply\nformat binary_little_endian 1.0\ncomment written by align3d\nelement vertex " +
+      std::to_string(mesh.vertices.size()) +
+      "\nproperty double x\nproperty double y\nproperty double z\nelement face " +
+      std::to_string(mesh.triangles.size()) + "\nproperty list uchar uint vertex_indices\n" +
+      "end_header\n";
+  write_atomically(path, [&](std::ostream& out) {
+    ChunkedOutput output(out);
+    std::string& buffer = output.buffer();
+    buffer += header;
+    for (const auto& v : mesh.vertices) {
+      for (int k = 0; k < 3; ++k) append_bytes(buffer, v[k], kHostIsBigEndian);
+      output.maybe_flush();
+    }
+    for (const auto& triangle : mesh.triangles) {
+      buffer += '\x03';
+      for (const std::uint32_t corner : triangle) append_bytes(buffer, corner, kHostIsBigEndian);
+      output.maybe_flush();
+    }
+    output.flush();
+  });
+}
+
+}  // namespace detail
 }  // namespace align3d::io

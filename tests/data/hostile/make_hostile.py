@@ -164,3 +164,190 @@ write("pcd_zero_points_huge_counts.pcd",
       pcd_header("ascii", 0, fields="x y z " + " ".join(f"f{i}" for i in range(fields)),
                  size=" ".join(["4"] * (fields + 3)), typ=" ".join(["F"] * (fields + 3)),
                  count="1 1 1 " + " ".join(["16777216"] * fields)))
+
+# ---- triangle meshes (run as `align3d convert FILE OUT.ply`: "convert-mesh") ----
+
+
+def stl_binary(facets, count=None, header="binary STL"):
+    out = header.encode().ljust(80, b" ") + struct.pack("<I", len(facets) if count is None else count)
+    for corners in facets:
+        out += f32(0, 0, 1) + f32(*corners) + b"\0\0"
+    return out
+
+
+def stl_ascii(body):
+    return "solid s\n" + body + "endsolid s\n"
+
+
+TRIANGLE = (0, 0, 0, 1, 0, 0, 0, 1, 0)
+FACET = "facet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\n"
+write("mesh_stl_empty.stl", "")
+write("mesh_stl_too_short.stl", "STL?\n")
+write("mesh_stl_count_4e9.stl", stl_binary([TRIANGLE], count=0xFFFFFFFF))
+write("mesh_stl_truncated_binary.stl", stl_binary([TRIANGLE] * 3, count=10))
+# A binary header that starts with "solid", cut short: not to be parsed as text.
+write("mesh_stl_solid_header_truncated.stl",
+      stl_binary([TRIANGLE] * 2, count=5, header="solid exported by a CAD tool"))
+write("mesh_stl_nan_corner.stl", stl_binary([TRIANGLE, (0, 0, 0, nan, 0, 0, 0, 1, 0)]))
+write("mesh_stl_inf_corner_ascii.stl", stl_ascii(FACET.replace("vertex 1 0 0", "vertex 1 inf 0")))
+write("mesh_stl_ascii_truncated.stl", "solid s\n" + FACET + "facet normal 0 0 1\nouter loop\nvertex 0 0")
+write("mesh_stl_ascii_bad_number.stl", stl_ascii(FACET.replace("vertex 0 1 0", "vertex 0 one 0")))
+write("mesh_stl_ascii_no_facets.stl", stl_ascii(""))
+write("mesh_stl_ascii_out_of_order.stl", stl_ascii("facet normal 0 0 1\nendloop\n"))
+
+OBJ_TRIANGLE = "v 0 0 0\nv 1 0 0\nv 0 1 0\n"
+write("mesh_obj_index_out_of_range.obj", OBJ_TRIANGLE + "f 1 2 3\nf 1 2 4\n")
+write("mesh_obj_index_zero.obj", OBJ_TRIANGLE + "f 0 1 2\n")
+write("mesh_obj_relative_before_first.obj", OBJ_TRIANGLE + "f -1 -2 -4\n")
+write("mesh_obj_index_overflow.obj", OBJ_TRIANGLE + "f 1 2 99999999999999999999999\n")
+write("mesh_obj_nan_vertex_used.obj", "v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n")
+write("mesh_obj_vertices_only.obj", OBJ_TRIANGLE)
+write("mesh_obj_degenerate_only.obj", OBJ_TRIANGLE + "f 1 2\nf 1 1 2\nf 3 2 3 1\n")
+write("mesh_obj_binary_garbage.obj", bytes(range(256)) * 2)
+write("mesh_obj_bad_corner.obj", OBJ_TRIANGLE + "f 1/1 2/2 three/3\n")
+
+OFF_SQUARE = "0 0 0\n1 0 0\n1 1 0\n0 1 0\n"
+write("mesh_off_counts_1e12.off", "OFF\n1000000000000 1000000000000 0\n" + OFF_SQUARE)
+write("mesh_off_truncated_faces.off", "OFF\n4 3 0\n" + OFF_SQUARE + "3 0 1 2\n")
+write("mesh_off_index_out_of_range.off", "OFF\n4 1 0\n" + OFF_SQUARE + "4 0 1 2 4\n")
+write("mesh_off_corner_count_huge.off", "OFF\n4 1 0\n" + OFF_SQUARE + "4294967295 0 1 2\n")
+write("mesh_off_binary.off", b"OFF BINARY\n" + struct.pack(">3i", 3, 1, 0) + f32(0, 0, 0, e=">"))
+write("mesh_off_is_a_ply.off", ply_header("ascii", 1) + "1 2 3\n")
+write("mesh_off_negative_count.off", "OFF\n-3 1 0\n" + OFF_SQUARE)
+write("mesh_off_nan_vertex_used.off", "OFF\n3 1 0\n0 0 0\n1 0 nan\n0 1 0\n3 0 1 2\n")
+
+
+def ply_mesh(fmt, vertices, faces, list_type="list uchar int vertex_indices", face_pre=""):
+    return (f"ply\nformat {fmt} 1.0\nelement vertex {vertices}\nproperty float x\nproperty float y\n"
+            f"property float z\nelement face {faces}\n{face_pre}property {list_type}\nend_header\n")
+
+
+PLY_VERTICES = f32(0, 0, 0, 1, 0, 0, 0, 1, 0)
+write("mesh_ply_index_out_of_range.ply",
+      ply_mesh("binary_little_endian", 3, 1).encode() + PLY_VERTICES + bytes([3])
+      + struct.pack("<3i", 0, 1, 3))
+write("mesh_ply_negative_index.ply",
+      ply_mesh("binary_big_endian", 3, 1).encode() + f32(0, 0, 0, 1, 0, 0, 0, 1, 0, e=">")
+      + bytes([3]) + struct.pack(">3i", 0, -1, 2))
+write("mesh_ply_face_count_1e12.ply",
+      ply_mesh("binary_little_endian", 3, 10**12).encode() + PLY_VERTICES + bytes([3])
+      + struct.pack("<3i", 0, 1, 2))
+write("mesh_ply_list_count_huge.ply",
+      ply_mesh("binary_little_endian", 3, 1, "list uint int vertex_indices").encode() + PLY_VERTICES
+      + struct.pack("<I3i", 0xFFFFFFFF, 0, 1, 2))
+write("mesh_ply_float_indices.ply",
+      ply_mesh("ascii", 3, 1, "list uchar float vertex_indices") + "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n")
+write("mesh_ply_truncated_faces.ply",
+      ply_mesh("binary_little_endian", 3, 2).encode() + PLY_VERTICES + bytes([3])
+      + struct.pack("<3i", 0, 1, 2) + bytes([3]) + struct.pack("<i", 0))
+write("mesh_ply_nan_vertex_used.ply",
+      ply_mesh("ascii", 3, 1) + "0 0 0\nnan 0 0\n0 1 0\n3 0 1 2\n")
+write("mesh_ply_degenerate_only.ply",
+      ply_mesh("ascii", 3, 2) + "0 0 0\n1 0 0\n0 1 0\n2 0 1\n3 0 1 0\n")
+write("mesh_ply_bad_index.ply", ply_mesh("ascii", 3, 1) + "0 0 0\n1 0 0\n0 1 0\n3 0 1 two\n")
+write("mesh_unknown_format.3ds", b"MM\x00\x00" + bytes(60))
+
+
+# ---- STEP / IGES (read through OpenCASCADE; tests/hostile_test.cpp's "convert-mesh") ----
+def step_tetrahedron():
+    """The entities of a STEP AP214 file of the solid tetrahedron with corners at the origin and at
+    10 mm along each axis, as a CAD exporter writes it: product, B-rep, units."""
+    corners = [(0, 0, 0), (10, 0, 0), (0, 10, 0), (0, 0, 10)]
+    faces = [(0, 2, 1), (0, 1, 3), (0, 3, 2), (1, 2, 3)]  # counter-clockwise seen from outside
+    lines = []
+
+    def entity(text):
+        lines.append("#%d = %s;" % (len(lines) + 1, text))
+        return "#%d" % len(lines)
+
+    def numbers(values):
+        return "(" + ",".join("%.6f" % x for x in values) + ")"
+
+    def unit(v):
+        n = math.sqrt(sum(x * x for x in v))
+        return [x / n for x in v]
+
+    length = entity("( LENGTH_UNIT() NAMED_UNIT(*) SI_UNIT(.MILLI.,.METRE.) )")
+    angle = entity("( NAMED_UNIT(*) PLANE_ANGLE_UNIT() SI_UNIT($,.RADIAN.) )")
+    solid_angle = entity("( NAMED_UNIT(*) SI_UNIT($,.STERADIAN.) SOLID_ANGLE_UNIT() )")
+    accuracy = entity("UNCERTAINTY_MEASURE_WITH_UNIT(LENGTH_MEASURE(1.E-07),%s,"
+                      "'distance_accuracy_value','')" % length)
+    context = entity("( GEOMETRIC_REPRESENTATION_CONTEXT(3) GLOBAL_UNCERTAINTY_ASSIGNED_CONTEXT"
+                     "((%s)) GLOBAL_UNIT_ASSIGNED_CONTEXT((%s,%s,%s)) REPRESENTATION_CONTEXT('','') )"
+                     % (accuracy, length, angle, solid_angle))
+    points = [entity("CARTESIAN_POINT('',%s)" % numbers(c)) for c in corners]
+    vertices = [entity("VERTEX_POINT('',%s)" % p) for p in points]
+    edges = {}
+    for a in range(4):
+        for b in range(a + 1, 4):
+            d = [corners[b][k] - corners[a][k] for k in range(3)]
+            direction = entity("DIRECTION('',%s)" % numbers(unit(d)))
+            vector = entity("VECTOR('',%s,%.6f)" % (direction, math.sqrt(sum(x * x for x in d))))
+            line = entity("LINE('',%s,%s)" % (points[a], vector))
+            edges[a, b] = entity("EDGE_CURVE('',%s,%s,%s,.T.)" % (vertices[a], vertices[b], line))
+    face_ids = []
+    for f in faces:
+        oriented = []
+        for k in range(3):
+            a, b = f[k], f[(k + 1) % 3]
+            oriented.append(entity("ORIENTED_EDGE('',*,*,%s,%s)"
+                                   % (edges[min(a, b), max(a, b)], ".T." if a < b else ".F.")))
+        loop = entity("EDGE_LOOP('',(%s))" % ",".join(oriented))
+        bound = entity("FACE_OUTER_BOUND('',%s,.T.)" % loop)
+        p = [corners[i] for i in f]
+        u = [p[1][k] - p[0][k] for k in range(3)]
+        v = [p[2][k] - p[0][k] for k in range(3)]
+        normal = [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]]
+        placement = entity("AXIS2_PLACEMENT_3D('',%s,%s,%s)"
+                           % (points[f[0]], entity("DIRECTION('',%s)" % numbers(unit(normal))),
+                              entity("DIRECTION('',%s)" % numbers(unit(u)))))
+        plane = entity("PLANE('',%s)" % placement)
+        face_ids.append(entity("ADVANCED_FACE('',(%s),%s,.T.)" % (bound, plane)))
+    shell = entity("CLOSED_SHELL('',(%s))" % ",".join(face_ids))
+    solid = entity("MANIFOLD_SOLID_BREP('',%s)" % shell)
+    shape = entity("ADVANCED_BREP_SHAPE_REPRESENTATION('',(%s),%s)" % (solid, context))
+    application = entity("APPLICATION_CONTEXT('core data for automotive mechanical design')")
+    entity("APPLICATION_PROTOCOL_DEFINITION('international standard','automotive_design',2000,%s)"
+           % application)
+    product = entity("PRODUCT('tetrahedron','tetrahedron','',(%s))"
+                     % entity("PRODUCT_CONTEXT('',%s,'mechanical')" % application))
+    formation = entity("PRODUCT_DEFINITION_FORMATION('','',%s)" % product)
+    definition = entity("PRODUCT_DEFINITION('design','',%s,%s)" % (
+        formation, entity("PRODUCT_DEFINITION_CONTEXT('part definition',%s,'design')" % application)))
+    entity("SHAPE_DEFINITION_REPRESENTATION(%s,%s)"
+           % (entity("PRODUCT_DEFINITION_SHAPE('','',%s)" % definition), shape))
+    return lines
+
+
+def step_file(lines):
+    return ("ISO-10303-21;\nHEADER;\nFILE_DESCRIPTION(('tetrahedron'),'2;1');\n"
+            "FILE_NAME('tetrahedron.step','2026-01-01T00:00:00',(''),(''),'','','');\n"
+            "FILE_SCHEMA(('AUTOMOTIVE_DESIGN { 1 0 10303 214 1 1 1 1 }'));\nENDSEC;\nDATA;\n"
+            + "\n".join(lines) + "\nENDSEC;\nEND-ISO-10303-21;\n")
+
+
+def first_index(lines, kind):
+    return next(i for i, line in enumerate(lines) if "= %s(" % kind in line)
+
+
+tetrahedron = step_tetrahedron()
+# OpenCASCADE keeps a reference to a missing entity, or to one of the wrong type, as a null field
+# that its transfer dereferences (a segmentation fault): the reader refuses such files first.
+# A direction left out: the vector of the first edge's line names nothing.
+dangling = list(tetrahedron)
+del dangling[first_index(dangling, "DIRECTION")]
+write("step_dangling_reference.step", step_file(dangling))
+# The first line's point names a direction instead.
+wrong_type = list(tetrahedron)
+line = first_index(wrong_type, "LINE")
+direction = wrong_type[first_index(wrong_type, "DIRECTION")].split(" ")[0]
+fields = wrong_type[line].split(",")  # "#n = LINE(''", point, vector
+wrong_type[line] = ",".join([fields[0], direction] + fields[2:])
+write("step_wrong_type_reference.step", step_file(wrong_type))
+# Cut in the middle of the DATA section.
+whole = step_file(tetrahedron)
+write("step_truncated.step", whole[:len(whole) // 2])
+# Geometry without a surface: a point.
+write("step_only_a_point.step", step_file(["#1 = CARTESIAN_POINT('',(1.,2.,3.));"]))
+# A STEP file named .igs: IGES is 80-column records, the section letter in column 73.
+write("iges_is_a_step.igs", whole)
