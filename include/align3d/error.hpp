@@ -12,13 +12,15 @@ namespace align3d {
 // Exit codes of the `align3d` tool, one per error class.
 enum class ExitCode : int {
   kOk = 0,
-  kInternal = 1,    // a bug: an unexpected exception
-  kUsage = 2,       // bad command line (unknown flag, bad value)
-  kInput = 3,       // a file is missing, unreadable, malformed, truncated or of unknown type
-  kData = 4,        // the data cannot be used: too few points, degenerate geometry, no plane
-  kOutput = 5,      // an output file could not be written
-  kNoSolution = 6,  // registration found no usable solution (too few correspondences)
-  kWarnings = 7,    // --strict: the result came with warnings (it may be wrong); outputs written
+  kInternal = 1,       // a bug: an unexpected exception
+  kUsage = 2,          // bad command line (unknown flag, bad value)
+  kInput = 3,          // a file is missing, unreadable, malformed, truncated or of unknown type
+  kData = 4,           // the data cannot be used: too few points, degenerate geometry, no plane
+  kOutput = 5,         // an output file could not be written
+  kNoSolution = 6,     // registration found no usable solution (too few correspondences)
+  kWarnings = 7,       // --strict: the result came with warnings (it may be wrong); outputs written
+  kBatchFailures = 8,  // batch: some pairs failed; the others' reports were written
+  kRejected = 9,       // inspect: the part is out of tolerance (verdict fail); outputs written
 };
 
 class Error : public std::runtime_error {

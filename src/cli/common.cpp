@@ -11,6 +11,7 @@
 
 #include "align3d/error.hpp"
 #include "align3d/io/atomic_file.hpp"
+#include "align3d/io/matrix_io.hpp"
 #include "align3d/io/point_cloud_io.hpp"
 #include "detail/number.hpp"
 
@@ -24,6 +25,45 @@ PointCloud load_cloud(const std::filesystem::path& path, std::ostream& err, io::
         << " points with NaN or Inf coordinates\n";
   if (info != nullptr) *info = read;
   return cloud;
+}
+
+TriangleMesh load_mesh(const std::filesystem::path& path, std::ostream& err,
+                       const io::MeshReadSettings& settings, io::MeshReadInfo* info) {
+  io::MeshReadInfo read;
+  TriangleMesh mesh = io::read_mesh(path, settings, &read);
+  if (read.dropped_faces > 0)
+    err << "align3d: warning: " << path.string() << ": dropped " << read.dropped_faces
+        << " faces with fewer than 3 distinct corners\n";
+  if (info != nullptr) *info = read;
+  return mesh;
+}
+
+report::InputInfo TargetInput::info(const std::string& path) const {
+  if (mesh) return {path, mesh->vertices.size(), mesh->triangles.size()};
+  return {path, cloud.size(), 0};
+}
+
+TargetInput load_target(const std::filesystem::path& path, std::ostream& err,
+                        const io::MeshReadSettings& settings) {
+  TargetInput t;
+  if (io::is_mesh_file(path))
+    t.mesh = load_mesh(path, err, settings);
+  else
+    t.cloud = load_cloud(path, err);
+  return t;
+}
+
+void apply_init(const std::string& init, AlignSettings& s) {
+  if (init == "auto") {
+    s.init = InitPolicy::kAuto;
+  } else if (init == "identity") {
+    s.init = InitPolicy::kIdentity;
+  } else if (init == "global") {
+    s.init = InitPolicy::kGlobal;
+  } else {
+    s.init = InitPolicy::kPose;
+    s.initial_pose = io::read_matrix(init);
+  }
 }
 
 Eigen::Vector3d parse_vector(const std::string& text, const std::string& flag) {

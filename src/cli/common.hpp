@@ -6,10 +6,13 @@
 #include <chrono>
 #include <filesystem>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <ostream>
 #include <string>
 #include <vector>
 
+#include "align3d/align.hpp"
+#include "align3d/io/mesh_io.hpp"
 #include "align3d/io/point_cloud_io.hpp"
 #include "align3d/point_cloud.hpp"
 #include "align3d/progress.hpp"
@@ -28,8 +31,26 @@ struct Streams {
 PointCloud load_cloud(const std::filesystem::path& path, std::ostream& err,
                       io::ReadInfo* info = nullptr);
 
+// Reads a mesh (io/mesh_io.hpp), warning on `err` about dropped faces.
+TriangleMesh load_mesh(const std::filesystem::path& path, std::ostream& err,
+                       const io::MeshReadSettings& settings = {}, io::MeshReadInfo* info = nullptr);
+
+// A registration target as given on the command line: a mesh when the file is one
+// (io::is_mesh_file: .stl .obj .off .step .iges, or a .ply with faces; registration then uses its
+// exact surface), else a point cloud.
+struct TargetInput {
+  std::optional<TriangleMesh> mesh;
+  PointCloud cloud;  // when not a mesh
+  report::InputInfo info(const std::string& path) const;
+};
+TargetInput load_target(const std::filesystem::path& path, std::ostream& err,
+                        const io::MeshReadSettings& settings = {});
+
 using report::to_json;     // 4 arrays of 4 numbers, row-major; vectors as 3 numbers
 using report::write_json;  // to a file atomically, or to `out` with "-"
+
+// --init: auto, identity, global, or a file with a 4x4 matrix (read here: ICP starts there).
+void apply_init(const std::string& init, AlignSettings& settings);
 
 // Parses "X,Y,Z": exactly three finite numbers (throws UsageError naming `flag`).
 Eigen::Vector3d parse_vector(const std::string& text, const std::string& flag);
@@ -82,5 +103,6 @@ Command add_ppf_model(CLI::App& app, Streams io);
 Command add_evaluate(CLI::App& app, Streams io);
 Command add_convert(CLI::App& app, Streams io);
 Command add_batch(CLI::App& app, Streams io);
+Command add_inspect(CLI::App& app, Streams io);
 
 }  // namespace align3d::cli

@@ -40,16 +40,7 @@ AlignSettings settings_from(RegisterOptions& o, std::optional<PpfModel>& model) 
     throw UsageError(std::string("--reject: ") + e.what());
   }
   s.global.method = o.global == "ppf" ? GlobalMethod::kPpf : GlobalMethod::kFpfh;
-  if (o.init == "auto") {
-    s.init = InitPolicy::kAuto;
-  } else if (o.init == "identity") {
-    s.init = InitPolicy::kIdentity;
-  } else if (o.init == "global") {
-    s.init = InitPolicy::kGlobal;
-  } else {
-    s.init = InitPolicy::kPose;
-    s.initial_pose = io::read_matrix(o.init);
-  }
+  apply_init(o.init, s);
   if (!o.ppf_model.empty()) {
     if (s.init != InitPolicy::kGlobal && s.init != InitPolicy::kAuto)
       throw UsageError("--ppf-model needs --init global or auto (it feeds the global stage)");
@@ -72,12 +63,14 @@ AlignSettings settings_from(RegisterOptions& o, std::optional<PpfModel>& model) 
 
 void print_summary(std::ostream& out, const RegisterOptions& o, const AlignResult& r,
                    const nlohmann::json& report, std::size_t source_points,
-                   std::size_t target_points) {
+                   const report::InputInfo& target) {
   const Eigen::Isometry3d& T = r.transformation;
   const IcpResult& icp = r.refine.icp;
   out << std::fixed << std::setprecision(6);
   out << "registered " << o.source << " (" << source_points << " points) onto " << o.target << " ("
-      << target_points << " points)\n";
+      << (target.triangles > 0 ? std::to_string(target.triangles) + " triangles, its exact surface"
+                               : std::to_string(target.points) + " points")
+      << ")\n";
   out << "  init " << o.init << ": kept the answer from the " << r.path
       << (r.path == "global" ? " registration" : " pose");
   if (!r.reason.empty()) out << " (global registration ran because " << r.reason << ")";
@@ -109,7 +102,10 @@ void print_summary(std::ostream& out, const RegisterOptions& o, const AlignResul
 int run_register(RegisterOptions& o, Streams io) {
   const auto start_read = std::chrono::steady_clock::now();
   const PointCloud source = load_cloud(o.source, io.err);
-  const PointCloud target = load_cloud(o.target, io.err);
+  const TargetInput target = load_target(o.target, io.err);
+  if (target.mesh && !o.ppf_model.empty())
+    throw UsageError("--ppf-model describes a point-cloud target; " + o.target +
+                     " is a mesh (its surface is sampled for the global stage)");
   std::optional<Eigen::Isometry3d> truth;
   if (!o.ground_truth.empty()) truth = io::read_matrix(o.ground_truth);
   std::optional<PpfModel> model;
@@ -122,12 +118,12 @@ int run_register(RegisterOptions& o, Streams io) {
   settings.progress = progress.callback();
   AlignResult r;
   try {
-    r = align(source, target, settings);
+    r = target.mesh ? align(source, *target.mesh, settings) : align(source, target.cloud, settings);
   } catch (const DataError& e) {
     rethrow_naming_files(e, o);
   }
   nlohmann::json report = report::registration_report(r, settings, {o.source, source.size()},
-                                                      {o.target, target.size()}, truth);
+                                                      target.info(o.target), truth);
   report["timing_ms"]["read"] = read_ms;
   if (r.success && !o.output.empty())
     io::write_point_cloud(o.output, transformed(source, r.transformation));
@@ -137,7 +133,7 @@ int run_register(RegisterOptions& o, Streams io) {
     throw Error(ExitCode::kNoSolution, o.source + ": no solution: " + r.failure);
   }
   if (o.report != "-" && !o.quiet)
-    print_summary(io.out, o, r, report, source.size(), target.size());
+    print_summary(io.out, o, r, report, source.size(), target.info(o.target));
   return report_warnings(r.warnings, o.strict, io.err);
 }
 
@@ -160,7 +156,9 @@ Command add_register(CLI::App& app, Streams io) {
       "stderr and in the report; --strict makes them exit code 7.");
   sub->add_option("SOURCE", o->source, "Source cloud (.ply .pcd .xyz .txt .csv), moved onto TARGET")
       ->required();
-  sub->add_option("TARGET", o->target, "Target cloud, the fixed reference (e.g. the model)")
+  sub->add_option("TARGET", o->target,
+                  "Target: a cloud, the fixed reference, or a mesh (.stl .obj .off .step .iges, a "
+                  ".ply with faces: a CAD model, registered onto its exact surface)")
       ->required();
   sub->add_option("--method", o->method, "Final ICP metric")
       ->check(CLI::IsMember({"point-to-point", "point-to-plane"}))

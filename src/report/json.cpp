@@ -47,6 +47,13 @@ nlohmann::json init_json(const AlignResult& r, const AlignSettings& s) {
           {"candidates", candidates}};
 }
 
+// A mesh's points are its vertices; its triangles are listed too.
+nlohmann::json input_json(const InputInfo& in) {
+  nlohmann::json j = {{"path", in.path}, {"points", in.points}};
+  if (in.triangles > 0) j["triangles"] = in.triangles;
+  return j;
+}
+
 }  // namespace
 
 nlohmann::json to_json(const Eigen::Isometry3d& T) {
@@ -98,8 +105,8 @@ nlohmann::json registration_report(const AlignResult& r, const AlignSettings& s,
                                    const std::optional<Eigen::Isometry3d>& truth) {
   const Eigen::Isometry3d& T = r.transformation;
   nlohmann::json j = {{"success", r.success},
-                      {"source", {{"path", source.path}, {"points", source.points}}},
-                      {"target", {{"path", target.path}, {"points", target.points}}},
+                      {"source", input_json(source)},
+                      {"target", input_json(target)},
                       {"method", to_string(s.refine.method)},
                       {"rejection", to_string(s.refine.rejection)},
                       {"icp_direction", r.reversed ? "target onto source" : "source onto target"},
@@ -122,6 +129,44 @@ nlohmann::json registration_report(const AlignResult& r, const AlignSettings& s,
     j["rotation_error_deg"] = e.rotation_deg;
     j["translation_error"] = e.translation;
   }
+  return j;
+}
+
+nlohmann::json inspection_report(const InspectResult& r, const InspectSettings& s,
+                                 const InputInfo& scan, const InputInfo& cad) {
+  nlohmann::json j = registration_report(r.registration, s.align, scan, cad);
+  const DeviationStats& d = r.stats;
+  j["deviation"] = {{"count", d.count}, {"mean", d.mean}, {"std", d.std}, {"rms", d.rms},
+                    {"min", d.min},     {"max", d.max},   {"p01", d.p01}, {"p05", d.p05},
+                    {"p50", d.p50},     {"p95", d.p95},   {"p99", d.p99}};
+  j["gauss_fit"] = {{"mean", r.gauss.mean}, {"sigma", r.gauss.sigma}};
+  j["tolerance"] = {{"lower", r.tolerance.lower}, {"upper", r.tolerance.upper}};
+  j["within_tolerance"] = r.within_tolerance;
+  j["counts"] = {{"below", r.below}, {"within", r.within}, {"above", r.above}};
+  j["outliers"] = r.map.outliers;
+  j["max_distance"] = r.map.max_distance;
+  j["pass_fraction"] = s.pass_fraction;
+  j["verdict"] = r.pass ? "pass" : "fail";
+  j["histogram"] = {{"lo", r.histogram.lo},
+                    {"hi", r.histogram.hi},
+                    {"counts", r.histogram.counts},
+                    {"below", r.histogram.below},
+                    {"above", r.histogram.above}};
+  j["mesh"] = {{"triangles", r.mesh.triangles},
+               {"vertices", r.mesh.vertices},
+               {"closed", r.mesh.closed()},
+               {"boundary_edges", r.mesh.boundary_edges},
+               {"non_manifold_edges", r.mesh.non_manifold_edges},
+               {"components", r.mesh.components},
+               {"welded_vertices", r.repair.welded_vertices},
+               {"dropped_triangles", r.repair.dropped_triangles},
+               {"inconsistent_edges", r.repair.inconsistent_edges},
+               {"rewound_triangles", r.repair.flipped_triangles},
+               {"inverted_components", r.repair.inverted_components}};
+  j["warnings"] = to_json(r.warnings);
+  j["timing_ms"]["align"] = r.align_ms;
+  j["timing_ms"]["deviation"] = r.deviation_ms;
+  j["timing_ms"]["inspect"] = r.total_ms;
   return j;
 }
 

@@ -15,6 +15,7 @@
 
 #include "align3d/align.hpp"
 #include "align3d/coarse/global.hpp"
+#include "align3d/inspect.hpp"
 #include "align3d/plane/rectify.hpp"
 #include "align3d/warning.hpp"
 
@@ -30,6 +31,7 @@ nlohmann::json to_json(const Support& s);
 struct InputInfo {
   std::string path;  // may be empty
   std::size_t points = 0;
+  std::size_t triangles = 0;  // a mesh: its triangles (points: its vertices); 0 for a cloud
 };
 
 // The report of one registration (`align3d register`; docs/report.md, "register"). With `truth`
@@ -37,6 +39,12 @@ struct InputInfo {
 nlohmann::json registration_report(const AlignResult& result, const AlignSettings& settings,
                                    const InputInfo& source, const InputInfo& target,
                                    const std::optional<Eigen::Isometry3d>& truth = std::nullopt);
+
+// The report of one inspection (`align3d inspect`; docs/report.md, "inspect"): the registration's
+// report (scan as source, CAD as target) with the deviation statistics, the tolerance, the verdict
+// and every warning.
+nlohmann::json inspection_report(const InspectResult& result, const InspectSettings& settings,
+                                 const InputInfo& scan, const InputInfo& cad);
 
 // The report of one plane correction (`align3d rectify`; docs/report.md, "rectify").
 nlohmann::json rectify_report(const RectifyResult& result, const RectifySettings& settings,
