@@ -101,9 +101,10 @@ void judge(const InspectSettings& s, std::size_t points, InspectResult& r) {
 InspectResult run(const PointCloud& scan, const PreparedTarget& cad, const InspectSettings& s) {
   const auto start = Clock::now();
   check_settings(s);
-  const MeshIndex* surface = cad.surface();
+  const std::shared_ptr<const MeshIndex> surface = cad.shared_surface();
   if (!surface) throw std::invalid_argument("inspect: the CAD model must be a mesh");
   InspectResult r;
+  r.surface = surface;
   AlignSettings a = s.align;
   a.threads = s.threads;
   r.registration = align(scan, cad, a);
@@ -141,7 +142,7 @@ double outlier_distance(const InspectSettings& s, double cad_diagonal) {
 
 InspectResult inspect(const PointCloud& scan, const TriangleMesh& cad,
                       const InspectSettings& settings) {
-  check_settings(settings);
+  check_settings(settings);  // before the mesh is indexed
   return run(scan, PreparedTarget(cad, settings.threads), settings);
 }
 

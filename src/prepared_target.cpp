@@ -36,6 +36,10 @@ PreparedTarget::PreparedTarget(std::shared_ptr<const MeshIndex> target, int thre
 
 const MeshIndex* PreparedTarget::surface() const { return side_->refine.surface(); }
 
+std::shared_ptr<const MeshIndex> PreparedTarget::shared_surface() const {
+  return side_->refine.shared_surface();
+}
+
 const PointCloud& PreparedTarget::cloud() const { return side_->refine.cloud(); }
 
 int PreparedTarget::normal_k() const { return side_->refine.normal_k(); }

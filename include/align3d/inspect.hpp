@@ -63,8 +63,11 @@ struct InspectResult {
   std::size_t within = 0, below = 0, above = 0;  // inliers inside, under and over the band
   double within_tolerance = 0;                   // within / inliers (0 when none)
   bool pass = false;
-  MeshTopology mesh;              // of the cleaned CAD mesh
-  MeshRepair repair;              // what cleaning it changed
+  MeshTopology mesh;  // of the cleaned CAD mesh
+  MeshRepair repair;  // what cleaning it changed
+  // The CAD model as measured: the cleaned mesh (surface->mesh(), the numbering of map.triangle)
+  // and its index.
+  std::shared_ptr<const MeshIndex> surface;
   std::vector<Warning> warnings;  // the registration's, then the inspection's
   double align_ms = 0, deviation_ms = 0, total_ms = 0;
 };

@@ -40,6 +40,7 @@ class PreparedTarget {
 
   const PointCloud& cloud() const;   // the target in spatial order; a mesh's sample
   const MeshIndex* surface() const;  // a mesh target's surface, or null
+  std::shared_ptr<const MeshIndex> shared_surface() const;  // the same, shared
   std::size_t size() const { return cloud().size(); }
   int normal_k() const;
 

@@ -1,4 +1,4 @@
-"""align3d: rigid registration and rectification of 3D point clouds.
+"""align3d: rigid registration, CAD inspection and rectification of 3D point clouds and meshes.
 
 A thin layer over the C++ library (docs/python.md): numpy arrays in and out, keyword settings
 named after the flags of the ``align3d`` command line, results whose ``to_dict()`` is the
@@ -26,6 +26,8 @@ from ._errors import (
     SettingsError,
     StrictError,
 )
+from ._inspect import InspectResult, inspect
+from ._mesh import TriangleMesh, is_mesh_file, read_mesh, write_mesh
 from ._register import RectifyResult, Result, rectify, register
 from ._target import Target
 
@@ -44,6 +46,7 @@ __all__ = [
     "DataError",
     "Error",
     "FileError",
+    "InspectResult",
     "NoSolutionError",
     "PointCloud",
     "RectifyResult",
@@ -51,15 +54,20 @@ __all__ = [
     "SettingsError",
     "StrictError",
     "Target",
+    "TriangleMesh",
     "convert",
     "demo",
     "evaluate",
+    "inspect",
+    "is_mesh_file",
     "ppf_model",
     "read_matrix",
+    "read_mesh",
     "read_point_cloud",
     "rectify",
     "register",
     "synth",
     "write_matrix",
+    "write_mesh",
     "write_point_cloud",
 ]

@@ -62,6 +62,8 @@ def synth(
     azimuth: Optional[float] = None,
     angle: Optional[float] = None,
     views: Optional[int] = None,
+    noise: Optional[float] = None,
+    triangles: Optional[int] = None,
 ) -> Dict[str, Any]:
     """Writes a synthetic scene with ground truth into ``outdir`` (``align3d synth``; created if
     missing) and returns its ``scene.json`` as a dict. Units: mm.
@@ -72,10 +74,15 @@ def synth(
     ``small-features``, ``large-offset``, ``extreme``), ``"parts"`` (a work cell of ``points``
     points a cloud), ``"bin"`` (a depth camera above a bin with ``instances`` objects) or
     ``"views"`` (``views`` range scans of an object, the first at ``azimuth``, then every
-    ``angle`` degrees). ``seed``: the same seed writes the same bytes (default 39).
+    ``angle`` degrees) or ``"part"`` (a machined part's CAD mesh ``part.stl`` and its as-built
+    scan with dents, bumps, warp, noise ``noise`` (mm), a fixture and a known pose, about
+    ``points`` points from ``views`` (1 or 2) viewpoints; ``triangles`` also writes
+    ``part_fine.stl`` subdivided to at least that many triangles; ``scan_truth.ply`` holds each
+    point's label and true deviation). ``seed``: the same seed writes the same bytes (default 39).
     Read the clouds with :func:`read_point_cloud` and the truth with :func:`read_matrix`."""
     run("synth", [outdir], dict(scene=scene, seed=seed, variant=variant, points=points,
-                                instances=instances, azimuth=azimuth, angle=angle, views=views))
+                                instances=instances, azimuth=azimuth, angle=angle, views=views,
+                                noise=noise, triangles=triangles))
     return _json(Path(outdir) / "scene.json")
 
 
@@ -115,12 +122,23 @@ def demo(
     return _json(Path(outdir) / "results.json")
 
 
-def convert(input: PathLike, output: PathLike, *, encoding: Optional[str] = None) -> None:
+def convert(
+    input: PathLike,
+    output: PathLike,
+    *,
+    encoding: Optional[str] = None,
+    sample: Optional[int] = None,
+    chord_tolerance: Optional[float] = None,
+) -> None:
     """Converts a cloud file between PLY, PCD and XYZ/TXT/CSV, each by its extension
     (``align3d convert``). Normals are kept where ``output``'s format holds them; a PCD's
     VIEWPOINT is kept into a PCD; points with a NaN or Inf coordinate are dropped (with an
-    :class:`AlignWarning`). ``encoding`` as :func:`write_point_cloud`'s. Written atomically."""
-    run("convert", [input, output], dict(encoding=encoding))
+    :class:`AlignWarning`). ``encoding`` as :func:`write_point_cloud`'s. A mesh (``.stl``,
+    ``.obj``, ``.off``, ``.ply`` with faces, STEP/IGES tessellated to ``chord_tolerance``)
+    converts into a mesh format, or into a cloud format with ``sample`` points spread evenly by
+    area. Written atomically."""
+    run("convert", [input, output],
+        dict(encoding=encoding, sample=sample, chord_tolerance=chord_tolerance))
 
 
 def ppf_model(model: PathLike, out: PathLike, *, voxel: Optional[float] = None) -> None:

@@ -72,6 +72,19 @@ def _load(role: str, value: Any) -> Tuple[PointCloud, str]:
     return as_cloud(value), ""
 
 
+def _load_target(value: Any) -> Tuple[Any, str]:
+    """A target as _core takes it: a mesh (a TriangleMesh, or a file align3d reads as a mesh:
+    its exact surface is registered onto) or a cloud, with the path reports show."""
+    from ._mesh import TriangleMesh, is_mesh_file, read_mesh
+
+    if isinstance(value, TriangleMesh):
+        return value._mesh, ""
+    if _is_path(value) and is_mesh_file(value):
+        return read_mesh(value)._mesh, os.fspath(value)
+    cloud, path = _load("target", value)
+    return cloud._cloud, path
+
+
 def _pose(name: str, value: Any) -> Union[str, np.ndarray]:
     """A transform file's name (the extension reads it as the command line does, bit for bit),
     or a checked 4x4 array."""
@@ -325,7 +338,9 @@ def register(
     SOURCE is the measured scan, moved; TARGET the fixed reference (the model). Each is a
     :class:`PointCloud`, an (N, 3) array, or a file name (read as :func:`read_point_cloud` does;
     the report then shows the path, as the command line's does); TARGET may also be a
-    :class:`Target`, prepared once for many sources (the same pose, less work per call).
+    :class:`TriangleMesh` or a mesh file (a CAD model: the scan is registered onto its exact
+    surface), or a :class:`Target`, prepared once for many sources (the same pose, less work per
+    call).
 
     Units and convention: distances are in the data's units (mm, m, ...) and every default
     distance follows the data (the object's extent, the target's point spacing, the noise), so
@@ -395,8 +410,7 @@ def register(
     if isinstance(target, Target):
         target_handle, target_path = target._target, target.path
     else:
-        target_cloud, target_path = _load("target", target)
-        target_handle = target_cloud._cloud
+        target_handle, target_path = _load_target(target)
     initial_pose = None
     if isinstance(init, str) and init in _INIT_POLICIES:
         policy = init

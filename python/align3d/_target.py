@@ -23,7 +23,9 @@ class Target:
     scans against a few models prepares each once. One Target may serve several Python threads
     at once (the GIL is released while it is built and used).
 
-    cloud: a :class:`PointCloud`, an (N, 3) array or a file name (reports then show the path).
+    cloud: a :class:`PointCloud`, an (N, 3) array or a file name (reports then show the path); or
+    a :class:`TriangleMesh` or a mesh file (a CAD model: registered onto its exact surface, and
+    the CAD model of :func:`inspect`).
     normal_k: neighbours of the PCA normals (the ``normal_k`` of the registrations that use it).
     threads: for the preparation (0: every core).
     """
@@ -37,12 +39,15 @@ class Target:
         normal_k: int = _DEFAULT_K,
         threads: int = 0,
     ) -> None:
-        from ._register import _int32, _load  # the argument rules of register()
+        from ._register import _int32, _load_target  # the argument rules of register()
 
-        c, path = _load("target", cloud)
-        self._target = _core.Target(
-            c._cloud, normal_k=_int32("normal_k", normal_k), threads=_int32("threads", threads)
-        )
+        handle, path = _load_target(cloud)
+        if isinstance(handle, _core.TriangleMesh):
+            self._target = _core.Target(handle, threads=_int32("threads", threads))
+        else:
+            self._target = _core.Target(
+                handle, normal_k=_int32("normal_k", normal_k), threads=_int32("threads", threads)
+            )
         self._path = path
 
     @property
@@ -58,8 +63,15 @@ class Target:
     def __len__(self) -> int:
         return len(self._target)
 
+    @property
+    def is_mesh(self) -> bool:
+        """True for a mesh target (its length is then the points of its surface sample)."""
+        return self._target.is_mesh
+
     def __repr__(self) -> str:
         where = f" from {self._path!r}" if self._path else ""
+        if self.is_mesh:
+            return f"align3d.Target(a mesh{where})"
         return f"align3d.Target({len(self)} points{where}, normal_k={self.normal_k})"
 
     def __reduce__(self) -> Any:

@@ -10,6 +10,7 @@
 #include <pybind11/pybind11.h>
 
 #include <Eigen/Geometry>
+#include <optional>
 #include <string>
 
 namespace align3d::python {
@@ -20,9 +21,15 @@ void bind_errors(py::module_& m);    // errors.cpp: the exception translator
 void bind_cloud(py::module_& m);     // cloud.cpp: PointCloud, files, matrices
 void bind_register(py::module_& m);  // register.cpp: align() and rectify() with their reports
 void bind_commands(py::module_& m);  // commands.cpp: a command of the `align3d` tool in-process
+void bind_mesh(py::module_& m);      // mesh.cpp: TriangleMesh, mesh files
+void bind_inspect(py::module_& m);   // inspect.cpp: inspect() with its report and arrays
 
 // The rigid transform in a 4x4 array, by the rule of transform files (io/matrix_io.hpp);
 // std::invalid_argument "<what>: <problem>" otherwise (cloud.cpp).
 Eigen::Isometry3d rigid(const Eigen::Matrix4d& m, const std::string& what);
+
+// A pose argument: None, a transform file's name (read as `--init FILE` and `--ground-truth FILE`
+// are) or a 4x4 array (checked as such a file is) (register.cpp).
+std::optional<Eigen::Isometry3d> pose(const py::object& value, const std::string& what);
 
 }  // namespace align3d::python

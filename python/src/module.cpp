@@ -8,6 +8,8 @@ PYBIND11_MODULE(_core, m) {
   m.attr("__version__") = ALIGN3D_VERSION;
   align3d::python::bind_errors(m);
   align3d::python::bind_cloud(m);
+  align3d::python::bind_mesh(m);
   align3d::python::bind_register(m);
+  align3d::python::bind_inspect(m);
   align3d::python::bind_commands(m);
 }

@@ -69,18 +69,23 @@ class PythonProgress {
   std::unique_ptr<py::error_already_set> error_;
 };
 
-// A pose argument: None, a transform file's name (read as `--init FILE` and `--ground-truth FILE`
-// are) or a 4x4 array (checked as such a file is).
-std::optional<Eigen::Isometry3d> pose(const py::object& value, const std::string& what) {
-  if (value.is_none()) return std::nullopt;
-  if (py::isinstance<py::str>(value)) return io::read_matrix(value.cast<std::string>());
-  return rigid(value.cast<Eigen::Matrix4d>(), what);
-}
-
 // The report text as the command line writes it (report::write_json).
 std::string text(const nlohmann::json& report) { return report.dump(2) + "\n"; }
 
-// TARGET: a PointCloud, or a PreparedTarget (the package's Target) built once for many sources.
+// What the report says of a target.
+report::InputInfo target_info(const PointCloud& t, const std::string& path) {
+  return {path, t.size()};
+}
+report::InputInfo target_info(const TriangleMesh& t, const std::string& path) {
+  return {path, t.vertices.size(), t.triangles.size()};
+}
+report::InputInfo target_info(const PreparedTarget& t, const std::string& path) {
+  if (t.surface()) return target_info(t.surface()->mesh(), path);
+  return {path, t.size()};
+}
+
+// TARGET: a PointCloud, a TriangleMesh, or a PreparedTarget (the package's Target) built once for
+// many sources.
 template <class Target>
 std::string register_clouds(const PointCloud& source, const Target& target, const std::string& init,
                             const py::object& initial_pose, const std::string& method,
@@ -122,7 +127,7 @@ std::string register_clouds(const PointCloud& source, const Target& target, cons
     }
     const AlignResult r = align(source, target, s);
     report = report::registration_report(r, s, {source_path, source.size()},
-                                         {target_path, target.size()}, truth);
+                                         target_info(target, target_path), truth);
   }
   python_progress.rethrow();
   report["timing_ms"]["read"] = read_ms;  // as `align3d register` adds it
@@ -172,7 +177,15 @@ void bind_target(py::module_& m) {
              return PreparedTarget(cloud, ns, threads);
            }),
            py::arg("cloud"), py::kw_only(), py::arg("normal_k"), py::arg("threads"))
+      .def(py::init([](const TriangleMesh& mesh, int threads) {
+             if (threads < 0) throw std::invalid_argument("threads: must be >= 0 (0: all cores)");
+             py::gil_scoped_release release;
+             return PreparedTarget(mesh, threads);
+           }),
+           py::arg("mesh"), py::kw_only(), py::arg("threads"))
       .def("__len__", &PreparedTarget::size)
+      .def_property_readonly("is_mesh",
+                             [](const PreparedTarget& t) { return t.surface() != nullptr; })
       .def_property_readonly("normal_k", &PreparedTarget::normal_k);
 }
 
@@ -188,9 +201,16 @@ void def_register(py::module_& m) {
 
 }  // namespace
 
+std::optional<Eigen::Isometry3d> pose(const py::object& value, const std::string& what) {
+  if (value.is_none()) return std::nullopt;
+  if (py::isinstance<py::str>(value)) return io::read_matrix(value.cast<std::string>());
+  return rigid(value.cast<Eigen::Matrix4d>(), what);
+}
+
 void bind_register(py::module_& m) {
   bind_target(m);
   def_register<PointCloud>(m);
+  def_register<TriangleMesh>(m);
   def_register<PreparedTarget>(m);
   m.def("rectify", &rectify_cloud, py::arg("cloud"), py::kw_only(), py::arg("fit"), py::arg("up"),
         py::arg("seed"), py::arg("cloud_path"));

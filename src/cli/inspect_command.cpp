@@ -17,7 +17,7 @@ namespace {
 struct InspectOptions {
   std::string scan, cad, tolerance;
   std::string init = to_string(AlignSettings{}.init);
-  std::string report, output, html, csv, histogram, units;
+  std::string report, output, html, figures, csv, histogram, units;
   io::MeshReadSettings mesh;
   bool strict = false, quiet = false;
   InspectSettings settings;
@@ -111,12 +111,6 @@ void print_summary(std::ostream& out, const InspectOptions& o, const InspectResu
   throw e;
 }
 
-void write_outputs(const InspectOptions& o, const PointCloud& scan, const InspectResult& r) {
-  if (!o.output.empty()) report::write_deviation_ply(o.output, scan, r);
-  if (!o.csv.empty()) report::write_deviation_csv(o.csv, scan, r);
-  if (!o.histogram.empty()) report::write_histogram_csv(o.histogram, r);
-}
-
 int run_inspect(InspectOptions& o, Streams io) {
   InspectSettings s = o.settings;
   s.tolerance = parse_tolerance(o.tolerance);
@@ -142,11 +136,14 @@ int run_inspect(InspectOptions& o, Streams io) {
                               fixed(mesh_info.chord_tolerance, 6) +
                               ", more than a tenth of the tolerance band: deviations carry that "
                               "error (--chord-tolerance)"});
+  // The CAD model as measured: welded and cleaned (as the package reports it, from an index).
+  const TriangleMesh& measured = r.surface->mesh();
   nlohmann::json report = report::inspection_report(
-      r, s, {o.scan, scan.size()}, {o.cad, cad.vertices.size(), cad.triangles.size()});
+      r, s, {o.scan, scan.size()}, {o.cad, measured.vertices.size(), measured.triangles.size()});
   report["timing_ms"]["read"] = read_ms;
   if (mesh_info.chord_tolerance > 0) report["mesh"]["chord_tolerance"] = mesh_info.chord_tolerance;
-  if (r.registration.success) write_outputs(o, scan, r);
+  report::write_inspection_outputs(
+      {o.output, o.csv, o.histogram, o.html, o.figures, o.scan, o.cad, o.units}, scan, r);
   if (!o.report.empty()) write_json(o.report, report, io.out);
   if (!r.registration.success) {
     report_warnings(r.warnings, false, io.err);
@@ -202,7 +199,9 @@ Command add_inspect(CLI::App& app, Streams io) {
   sub->add_option("--histogram", o->histogram,
                   "Write the histogram and the Gauss fit's expected counts as CSV");
   sub->add_option("--html", o->html, "Write an offline HTML page: views, histogram, statistics");
-  sub->add_option("--units", o->units, "Unit label for the page (e.g. mm); only a label");
+  sub->add_option("--figures", o->figures,
+                  "Write views.png (four colour-mapped views) and histogram.png/.svg into DIR");
+  sub->add_option("--units", o->units, "Unit label for the page and figures (e.g. mm); a label");
   sub->add_option("--chord-tolerance", o->mesh.chord_tolerance,
                   "STEP/IGES: tessellation chord tolerance (data units); 0: 1e-4 x the diagonal")
       ->check(finite_non_negative())

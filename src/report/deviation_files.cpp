@@ -3,9 +3,11 @@
 #include <cmath>
 #include <cstdio>
 
+#include "align3d/error.hpp"
 #include "align3d/io/atomic_file.hpp"
 #include "align3d/io/ply_attributes.hpp"
 #include "align3d/report/colormap.hpp"
+#include "align3d/report/inspection_page.hpp"
 
 namespace align3d::report {
 namespace {
@@ -88,6 +90,23 @@ void write_histogram_csv(const std::filesystem::path& path, const InspectResult&
     text += '\n';
   }
   io::write_text_atomically(path, text);
+}
+
+void write_inspection_outputs(const InspectionOutputs& o, const PointCloud& scan,
+                              const InspectResult& r) {
+  const InspectionPageInfo page{o.scan_path, o.cad_path, o.units};
+  if (r.registration.success) {
+    if (!o.ply.empty()) write_deviation_ply(o.ply, scan, r);
+    if (!o.csv.empty()) write_deviation_csv(o.csv, scan, r);
+    if (!o.histogram.empty()) write_histogram_csv(o.histogram, r);
+  }
+  if (!o.html.empty()) write_inspection_page(o.html, r, scan, r.surface->mesh(), page);
+  if (!o.figures.empty() && r.registration.success) {
+    std::error_code ec;
+    std::filesystem::create_directories(o.figures, ec);
+    if (ec) throw OutputError(o.figures, "cannot create the folder: " + ec.message());
+    write_inspection_figures(o.figures, r, scan, r.surface->mesh(), page);
+  }
 }
 
 }  // namespace align3d::report

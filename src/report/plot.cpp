@@ -10,6 +10,7 @@
 #include <numbers>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "canvas.hpp"
@@ -39,6 +40,40 @@ struct Prepared {
   std::vector<double> line_y;  // HorizontalLine y in plot coordinates
   Range x, y;                  // padded data range in plot coordinates
 };
+
+// Bars, vertical lines and bands: checked, and their extent added to the data ranges (a bar spans
+// y = 0 to its height; on a log axis only its height counts, and a bar of height <= 0 none).
+void prepare_bars_and_verticals(const Figure& figure, Range& x, Range& y) {
+  for (const Bar& b : figure.bars) {
+    if (!std::isfinite(b.x0) || !std::isfinite(b.x1) || !std::isfinite(b.height) ||
+        !(b.x0 < b.x1)) {
+      throw std::invalid_argument("figure: a bar needs finite x0 < x1 and a finite height, got [" +
+                                  std::to_string(b.x0) + ", " + std::to_string(b.x1) + "] x " +
+                                  std::to_string(b.height));
+    }
+    x.add(b.x0);
+    x.add(b.x1);
+    if (figure.log_y) {
+      if (b.height > 0) y.add(std::log10(b.height));
+    } else {
+      y.add(0);
+      y.add(b.height);
+    }
+  }
+  for (const VerticalLine& l : figure.vertical_lines) {
+    if (!std::isfinite(l.x)) {
+      throw std::invalid_argument("figure: vertical line '" + l.label + "' has a non-finite x");
+    }
+    x.add(l.x);
+  }
+  for (const VerticalBand& b : figure.bands) {
+    if (!std::isfinite(b.x0) || !std::isfinite(b.x1) || !(b.x0 <= b.x1)) {
+      throw std::invalid_argument("figure: band '" + b.label + "' needs finite x0 <= x1");
+    }
+    x.add(b.x0);
+    x.add(b.x1);
+  }
+}
 
 // Pads a range by kPadFraction of its span on each side. A degenerate range (one value, or a spread
 // below 1e-9 of its magnitude: rounding noise) gets a span of 20% of its magnitude, at least 1,
@@ -88,7 +123,10 @@ Prepared prepare(const Figure& figure) {
     }
     p.series.push_back(std::move(ps));
   }
-  if (!(x.lo <= x.hi)) throw std::invalid_argument("figure: no series has a finite point to draw");
+  prepare_bars_and_verticals(figure, x, y);
+  if (!(x.lo <= x.hi) || !(y.lo <= y.hi)) {
+    throw std::invalid_argument("figure: no series has a finite point to draw");
+  }
   for (const auto& line : figure.lines) {
     if (!std::isfinite(line.y) || (figure.log_y && line.y <= 0)) {
       throw std::invalid_argument("figure: horizontal line '" + line.label + "' at y = " +
@@ -99,6 +137,8 @@ Prepared prepare(const Figure& figure) {
   }
   p.x = padded(x, 0);
   p.y = padded(y, figure.log_y ? 0.5 : 0);  // half a decade each way for a flat log curve
+  // Bars stand on the axis' bottom: no padding below y = 0 when nothing lies below it.
+  if (!figure.bars.empty() && !figure.log_y && y.lo >= 0) p.y.lo = 0;
   if (!std::isfinite(p.x.span()) || !std::isfinite(p.y.span())) {
     throw std::invalid_argument("figure: data range too large to plot (beyond 1e307)");
   }
@@ -108,7 +148,7 @@ Prepared prepare(const Figure& figure) {
 // ---------------------------------------------------------------------------------------------
 // Layout
 
-enum class EntryKind { kScatter, kLine, kReference };
+enum class EntryKind { kScatter, kLine, kReference, kBox };
 
 struct LegendEntry {
   EntryKind kind;
@@ -138,6 +178,10 @@ Legend make_legend(cairo_t* cr, const Figure& f, const Fonts& fonts) {
     if (l.label.empty()) continue;
     legend.entries.push_back({EntryKind::kReference, l.label, l.color, 1.0, 1.5, l.dashed, false});
   }
+  for (const auto& b : f.bands) {
+    if (b.label.empty()) continue;
+    legend.entries.push_back({EntryKind::kBox, b.label, b.color, 1.0, 0, false, false});
+  }
   if (legend.entries.empty()) return legend;
   set_font(cr, fonts.legend);
   double widest = 0;
@@ -156,11 +200,46 @@ struct Layout {
   Ticks x_ticks, y_ticks;
   double legend_x = 0, legend_y = 0;
   bool has_title = false;
-  double title_y = 0;  // centre of the title's capitals
+  double title_y = 0;          // centre of the title's capitals
+  std::vector<int> label_row;  // per vertical line: its label's row above the plot (0 nearest), or
+                               // -1 for none
+  double label_row_h = 0;
 
   double px(double x_value) const { return x0 + (x_value - x.lo) / x.span() * w; }
   double py(double y_value) const { return y0 + h - (y_value - y.lo) / y.span() * h; }
 };
+
+// Each vertical line's label on the lowest row above the plot where it keeps a gap to the label
+// before it (left to right); returns the number of rows.
+int assign_label_rows(cairo_t* cr, const Figure& f, Layout& L, double gap) {
+  L.label_row.assign(f.vertical_lines.size(), -1);
+  std::vector<std::size_t> order;
+  for (std::size_t i = 0; i < f.vertical_lines.size(); ++i) {
+    if (!f.vertical_lines[i].label.empty()) order.push_back(i);
+  }
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    return f.vertical_lines[a].x < f.vertical_lines[b].x;
+  });
+  std::vector<double> row_end;  // right end of the last label on each row
+  for (std::size_t i : order) {
+    const double half = 0.5 * text_width(cr, f.vertical_lines[i].label);
+    const double start = L.px(f.vertical_lines[i].x) - half;
+    std::size_t row = 0;
+    while (row < row_end.size() && row_end[row] + gap > start) ++row;
+    if (row == row_end.size()) row_end.push_back(0);
+    row_end[row] = start + 2 * half;
+    L.label_row[i] = static_cast<int>(row);
+  }
+  return static_cast<int>(row_end.size());
+}
+
+// A bar's top and base in pixels: from y = 0, or on a log axis from the axis' bottom (a bar of
+// height <= 0 there has top == base).
+std::pair<double, double> bar_span(const Figure& f, const Layout& L, const Bar& b) {
+  if (!f.log_y) return {L.py(b.height), L.py(0)};
+  const double base = L.py(L.y.lo);
+  return {b.height > 0 ? L.py(std::log10(b.height)) : base, base};
+}
 
 enum class LegendPlace { kUpperRight, kUpperLeft, kLowerLeft, kLowerRight, kOutside };
 
@@ -211,12 +290,16 @@ Layout make_layout(cairo_t* cr, const Figure& f, const Prepared& p, const Fonts&
   L.title_y = pad + 0.5 * cap_height(cr);
 
   const double top = pad + (L.has_title ? title_h + 1.2 * gap : 0.5 * tick_text_h);
+  set_font(cr, fonts.legend);
+  const double note_h = f.note.empty() ? 0 : 1.35 * cap_height(cr) + 2 * gap;
   const double bottom =
-      kTickLength + gap + tick_text_h + (f.x_label.empty() ? 0 : 2 * gap + label_h) + pad;
+      kTickLength + gap + tick_text_h + (f.x_label.empty() ? 0 : 2 * gap + label_h) + note_h + pad;
+  L.label_row_h = 1.35 * tick_text_h + 0.5 * gap;
   L.y0 = top;
   L.h = std::max(10.0, f.height - top - bottom);
 
   double left = pad + 40, right = pad;
+  int rows = 0;
   L.x = p.x;
   L.y = p.y;
   for (int pass = 0; pass < 4; ++pass) {
@@ -224,6 +307,10 @@ Layout make_layout(cairo_t* cr, const Figure& f, const Prepared& p, const Fonts&
     L.w = std::max(10.0, f.width - left - right);
     L.x = p.x;
     L.y = p.y;
+    set_font(cr, fonts.tick);
+    const int new_rows = assign_label_rows(cr, f, L, gap);
+    L.y0 = top + new_rows * L.label_row_h;
+    L.h = std::max(10.0, f.height - L.y0 - bottom);
     if (f.equal_aspect && !f.log_y) {
       // Same data units per pixel on both axes: widen the tighter range about its centre.
       const double units_per_px = std::max(L.x.span() / L.w, L.y.span() / L.h);
@@ -245,9 +332,10 @@ Layout make_layout(cairo_t* cr, const Figure& f, const Prepared& p, const Fonts&
     const double new_left =
         pad + (f.y_label.empty() ? 0 : label_h + 2 * gap) + widest_y + gap + kTickLength;
     const double new_right = std::max(pad, overhang + 4) + (outside ? legend.width + 1.5 * pad : 0);
-    if (new_left == left && new_right == right) break;
+    if (new_left == left && new_right == right && new_rows == rows) break;
     left = new_left;
     right = new_right;
+    rows = new_rows;
   }
 
   place_legend(L, legend, place, fonts);
@@ -279,7 +367,7 @@ bool segment_hits_box(Eigen::Vector2d a, Eigen::Vector2d b, double x0, double y0
 
 // How much data the legend box would hide at this layout's legend position: points under it, plus
 // a heavy weight for every polyline segment or reference line crossing it.
-double legend_overlap(const Layout& L, const Prepared& p, const Legend& legend) {
+double legend_overlap(const Figure& f, const Layout& L, const Prepared& p, const Legend& legend) {
   const double m = 4;  // keep a few pixels of air around the box
   const double x0 = L.legend_x - m, y0 = L.legend_y - m;
   const double x1 = L.legend_x + legend.width + m, y1 = L.legend_y + legend.height + m;
@@ -304,6 +392,13 @@ double legend_overlap(const Layout& L, const Prepared& p, const Legend& legend) 
     const double v = L.py(y);
     if (v >= y0 && v <= y1) cost += 100;
   }
+  for (const Bar& b : f.bars) {
+    const auto [top, base] = bar_span(f, L, b);
+    if (L.px(b.x1) >= x0 && L.px(b.x0) <= x1 && std::max(top, base) >= y0 &&
+        std::min(top, base) <= y1) {
+      cost += 1;
+    }
+  }
   return cost;
 }
 
@@ -318,7 +413,7 @@ Layout choose_layout(cairo_t* cr, const Figure& f, const Prepared& p, const Font
                             LegendPlace::kLowerLeft, LegendPlace::kLowerRight}) {
     Layout L = make_layout(cr, f, p, fonts, legend, place);
     const bool fits = legend.width + 40 < L.w && legend.height + 40 < L.h;
-    if (fits && legend_overlap(L, p, legend) == 0) return L;
+    if (fits && legend_overlap(f, L, p, legend) == 0) return L;
   }
   return make_layout(cr, f, p, fonts, legend, LegendPlace::kOutside);
 }
@@ -445,6 +540,11 @@ void draw_legend(cairo_t* cr, const Layout& L, const Legend& legend, const Fonts
         cairo_stroke(cr);
         cairo_set_dash(cr, nullptr, 0, 0);
         break;
+      case EntryKind::kBox:
+        set_color(cr, e.color, 1.0);
+        cairo_rectangle(cr, sx0, cy - 0.35 * legend.row, legend.sample, 0.7 * legend.row);
+        cairo_fill(cr);
+        break;
     }
     cairo_set_source_rgb(cr, 0.1, 0.1, 0.1);
     draw_text(cr, e.label, sx1 + 0.6 * fonts.legend.size, cy, 0);
@@ -478,13 +578,52 @@ void draw_grid(cairo_t* cr, const Layout& L, const Frame& frame) {
   cairo_stroke(cr);
 }
 
-// Reference lines, then the series, clipped to the plot area.
+// Shaded intervals across the plot's height, under the grid.
+void draw_bands(cairo_t* cr, const Figure& f, const Layout& L, const Frame& frame) {
+  const auto [x0, y0, x1, y1] = frame;
+  for (const VerticalBand& b : f.bands) {
+    const double left = std::max(x0, std::round(L.px(b.x0))),
+                 right = std::min(x1, std::round(L.px(b.x1)));
+    if (right <= left) continue;
+    set_color(cr, b.color, 1.0);
+    cairo_rectangle(cr, left, y0, right - left, y1 - y0);
+    cairo_fill(cr);
+  }
+}
+
+// Bars with edges on whole pixels; outlined in 60 % of their colour when 4 pixels or wider.
+void draw_bars(cairo_t* cr, const Figure& f, const Layout& L) {
+  cairo_set_line_width(cr, 1);
+  for (const Bar& b : f.bars) {
+    const double left = std::round(L.px(b.x0)), right = std::round(L.px(b.x1));
+    const auto [y_top, y_base] = bar_span(f, L, b);
+    const double top = std::round(std::min(y_top, y_base));
+    const double base = std::round(std::max(y_top, y_base));
+    if (right <= left || base <= top) continue;
+    set_color(cr, b.color, 1.0);
+    cairo_rectangle(cr, left, top, right - left, base - top);
+    cairo_fill(cr);
+    if (right - left < 4) continue;
+    set_color(cr, {0.6 * b.color[0], 0.6 * b.color[1], 0.6 * b.color[2]}, 1.0);
+    cairo_rectangle(cr, left + 0.5, top + 0.5, right - left - 1, base - top - 1);
+    cairo_stroke(cr);
+  }
+}
+
+// Bars, reference lines, then the series, clipped to the plot area.
 void draw_data(cairo_t* cr, const Figure& f, const Prepared& p, const Layout& L,
                const Frame& frame) {
   const auto [x0, y0, x1, y1] = frame;
   cairo_save(cr);
   cairo_rectangle(cr, x0, y0, x1 - x0, y1 - y0);
   cairo_clip(cr);
+  draw_bars(cr, f, L);
+  for (const VerticalLine& v : f.vertical_lines) {
+    set_reference_style(cr, v.color, v.dashed, 1.5);
+    cairo_move_to(cr, snap(L.px(v.x)), y0);
+    cairo_line_to(cr, snap(L.px(v.x)), y1);
+    cairo_stroke(cr);
+  }
   for (std::size_t i = 0; i < f.lines.size(); ++i) {
     set_reference_style(cr, f.lines[i].color, f.lines[i].dashed, 1.5);
     cairo_move_to(cr, x0, L.py(p.line_y[i]));
@@ -528,6 +667,22 @@ void draw_frame(cairo_t* cr, const Layout& L, const Frame& frame) {
   cairo_stroke(cr);
 }
 
+// The vertical lines' labels in their rows above the plot, centred on the lines but kept inside
+// the image.
+void draw_vertical_line_labels(cairo_t* cr, const Figure& f, const Layout& L, const Fonts& fonts) {
+  set_font(cr, fonts.tick);
+  cairo_set_source_rgb(cr, 0.1, 0.1, 0.1);
+  const double margin = fonts.tick.size;
+  for (std::size_t i = 0; i < f.vertical_lines.size(); ++i) {
+    if (L.label_row[i] < 0) continue;
+    const std::string& text = f.vertical_lines[i].label;
+    const double half = 0.5 * text_width(cr, text);
+    const double cx = std::clamp(L.px(f.vertical_lines[i].x), margin + half,
+                                 std::max(margin + half, f.width - margin - half));
+    draw_text(cr, text, cx, L.y0 - (L.label_row[i] + 0.5) * L.label_row_h, 0.5);
+  }
+}
+
 // Tick labels, axis labels and the title.
 void draw_labels(cairo_t* cr, const Figure& f, const Layout& L, const Frame& frame,
                  const Fonts& fonts) {
@@ -557,6 +712,12 @@ void draw_labels(cairo_t* cr, const Figure& f, const Layout& L, const Frame& fra
     draw_vertical_text(cr, f.y_label, x0 - kTickLength - gap - widest_y - 2 * gap - 0.5 * label_cap,
                        0.5 * (y0 + y1));
   }
+  draw_vertical_line_labels(cr, f, L, fonts);
+  if (!f.note.empty()) {
+    set_font(cr, fonts.legend);
+    cairo_set_source_rgb(cr, 0.25, 0.25, 0.25);
+    draw_text(cr, f.note, x0, f.height - fonts.tick.size - 0.5 * 1.35 * cap_height(cr), 0);
+  }
   if (L.has_title) {
     set_font(cr, fonts.title);
     cairo_set_source_rgb(cr, 0, 0, 0);
@@ -573,6 +734,7 @@ void draw(cairo_t* cr, const Figure& f, const Prepared& p) {
   const Legend legend = make_legend(cr, f, fonts);
   const Layout L = choose_layout(cr, f, p, fonts, legend);
   const Frame frame{snap(L.x0), snap(L.y0), snap(L.x0 + L.w), snap(L.y0 + L.h)};
+  draw_bands(cr, f, L, frame);
   draw_grid(cr, L, frame);
   draw_data(cr, f, p, L, frame);
   draw_frame(cr, L, frame);

@@ -75,6 +75,7 @@ class RefineTarget {
 
   const PointCloud& cloud() const { return cloud_; }  // the spatially ordered copy (or sample)
   const MeshIndex* surface() const { return surface_.get(); }  // null for a point-cloud target
+  const std::shared_ptr<const MeshIndex>& shared_surface() const { return surface_; }
   const KdTree& tree() const { return *tree_; }
   int normal_k() const { return normal_k_; }
   // The normal of every point in `indices` of cloud() (estimated first where needed), then all

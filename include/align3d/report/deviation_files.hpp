@@ -25,4 +25,18 @@ void write_deviation_csv(const std::filesystem::path& path, const PointCloud& sc
 // One row per histogram bin: bin_lo,bin_hi,count,gauss (the count the Gauss fit expects there).
 void write_histogram_csv(const std::filesystem::path& path, const InspectResult& result);
 
+// The files one inspection asks for (empty: not written), and what the HTML page names.
+struct InspectionOutputs {
+  std::string ply, csv, histogram, html;  // --output, --csv, --histogram, --html
+  std::string figures;                    // --figures: a folder for views.png, histogram.png/svg
+  std::string scan_path, cad_path;        // shown on the page
+  std::string units;                      // a label for the page ("": none)
+};
+
+// Writes each file `outputs` names, in the order above (the CLI's and the Python package's
+// inspect): for a failed registration only the page (it says why). The figures' folder is created
+// when missing.
+void write_inspection_outputs(const InspectionOutputs& outputs, const PointCloud& scan,
+                              const InspectResult& result);
+
 }  // namespace align3d::report
