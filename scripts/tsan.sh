@@ -23,5 +23,5 @@ ALIGN3D_PYTHON=OFF BUILD_DIR=$build_dir bash scripts/build.sh -DCMAKE_CXX_COMPIL
   -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g" "$@"
 
 export TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1"
-parallel_tests='^(TsanSelfCheck|PreparedTarget|Parallel|KdTree|SpatialOrder|Normals|NormalCache|IcpScene|IcpNormalCache|Degeneracy|Variants/ConveyorVariant|Refine|Align|Shapes/ObjectView|Fpfh|FpfhRansac|Ppf)\.'
+parallel_tests='^(TsanSelfCheck|PreparedTarget|Parallel|KdTree|SpatialOrder|Normals|NormalCache|IcpScene|IcpNormalCache|Degeneracy|Variants/ConveyorVariant|Refine|Align|Shapes/ObjectView|Fpfh|FpfhRansac|Ppf|MeshIndex|Deviation|MeshAlign)\.'
 ctest --test-dir "$build_dir" -j "${JOBS:-2}" --output-on-failure --timeout 900 -R "$parallel_tests"

@@ -351,8 +351,6 @@ AlignResult align(const PointCloud& source, const TriangleMesh& target,
                   const AlignSettings& settings) {
   check_settings(settings);
   check_registrable(source, "source");
-  if (settings.ppf_model != nullptr)
-    throw std::invalid_argument("align: a ppf_model with a mesh target (prepare the mesh instead)");
   detail::TargetSide side(std::make_shared<const MeshIndex>(target, settings.threads, "target"),
                           settings.threads, false);
   Pipeline pipeline(source, side, settings);

@@ -105,6 +105,19 @@ TEST_F(InspectCli, RegisterTakesAMeshAsItsTarget) {
   EXPECT_EQ(j["icp_direction"], "source onto target");
 }
 
+TEST_F(InspectCli, APpfModelOfTheMeshFeedsTheGlobalStage) {
+  const CliRun m = run({"ppf-model", path("part.stl"), out("part.ppf")});
+  ASSERT_EQ(m.code, 0) << m.err;
+  const CliRun r = run({"register", path("scan.ply"), path("part.stl"), "--init", "global",
+                        "--ppf-model", out("part.ppf"), "--ground-truth", path("ground_truth.txt"),
+                        "--report", "-"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["global"]["method"], "ppf");
+  EXPECT_LT(j["rotation_error_deg"].get<double>(), 0.02);
+  EXPECT_LT(j["translation_error"].get<double>(), 0.02);
+}
+
 TEST_F(InspectCli, BadBandsAreUsageErrorsAndBadFilesInputErrors) {
   const std::string scan = path("scan.ply"), cad = path("part.stl");
   for (const char* band : {"0", "-0.1", "nan", "0.1,0.2", "-0.2,-0.1", "0.1,", "abc"}) {

@@ -4,6 +4,7 @@
 
 #include "align3d/coarse/ppf.hpp"
 #include "align3d/error.hpp"
+#include "align3d/icp/refine.hpp"
 #include "common.hpp"
 
 namespace align3d::cli {
@@ -22,7 +23,10 @@ Command add_ppf_model(CLI::App& app, Streams io) {
       "ppf-model",
       "Build the point-pair-feature description of MODEL and save it to OUT, for\n"
       "`align3d register SCAN MODEL --ppf-model OUT` on many scans (MODEL is their target).");
-  sub->add_option("MODEL", o->model, "Model cloud (the target of later registrations)")->required();
+  sub->add_option("MODEL", o->model,
+                  "Model: a cloud, or a mesh (sampled evenly by area, as registration samples a "
+                  "mesh target); the target of later registrations")
+      ->required();
   sub->add_option("OUT", o->out, "Output file for the model description")->required();
   sub->add_option("--voxel", o->voxel,
                   "Voxel size (data units); 0: the model's extent / 50 (its bulk: 0.5-99.5 "
@@ -30,7 +34,11 @@ Command add_ppf_model(CLI::App& app, Streams io) {
       ->check(finite_non_negative())
       ->capture_default_str();
   return {sub, [o, io] {
-            const PointCloud model = load_cloud(o->model, io.err);
+            // A mesh is described by the sample registration uses for its global stage.
+            const PointCloud model =
+                io::is_mesh_file(o->model)
+                    ? mesh_target_sample(MeshIndex(load_mesh(o->model, io.err), 0, o->model))
+                    : load_cloud(o->model, io.err);
             GlobalSettings gs;
             gs.voxel = o->voxel;
             PpfModel description;

@@ -103,9 +103,6 @@ int run_register(RegisterOptions& o, Streams io) {
   const auto start_read = std::chrono::steady_clock::now();
   const PointCloud source = load_cloud(o.source, io.err);
   const TargetInput target = load_target(o.target, io.err);
-  if (target.mesh && !o.ppf_model.empty())
-    throw UsageError("--ppf-model describes a point-cloud target; " + o.target +
-                     " is a mesh (its surface is sampled for the global stage)");
   std::optional<Eigen::Isometry3d> truth;
   if (!o.ground_truth.empty()) truth = io::read_matrix(o.ground_truth);
   std::optional<PpfModel> model;

@@ -117,10 +117,7 @@ RefineTarget::RefineTarget(const PointCloud& target, const NormalSettings& norma
   }
 }
 
-namespace {
-
-// The sample of a mesh target (refine.hpp).
-PointCloud mesh_sample(const MeshIndex& surface) {
+PointCloud mesh_target_sample(const MeshIndex& surface) {
   const double diagonal = surface.diagonal();
   const double cell = diagonal / kMeshSampleDivisions;
   const double wanted = surface_area(surface.mesh()) / (cell * cell);
@@ -129,11 +126,9 @@ PointCloud mesh_sample(const MeshIndex& surface) {
   return sample_surface(surface.mesh(), count, kMeshSampleSeed);
 }
 
-}  // namespace
-
 RefineTarget::RefineTarget(std::shared_ptr<const MeshIndex> surface, int threads)
     : surface_(std::move(surface)) {
-  const PointCloud sample = mesh_sample(*surface_);
+  const PointCloud sample = mesh_target_sample(*surface_);
   cloud_ = reordered(sample, spatial_order(sample.positions));
   tree_ = std::make_unique<KdTree>(cloud_.positions, threads);
 }

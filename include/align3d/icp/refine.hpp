@@ -64,6 +64,9 @@ inline constexpr std::size_t kMinMeshSamples = 20000;
 inline constexpr std::size_t kMaxMeshSamples = 400000;
 inline constexpr std::uint64_t kMeshSampleSeed = 1;
 
+// That sample of a mesh (with the triangles' normals; the file order of sample_surface).
+PointCloud mesh_target_sample(const MeshIndex& surface);
+
 class RefineTarget {
  public:
   RefineTarget(const PointCloud& target, const NormalSettings& normals = {}, int threads = 0);
