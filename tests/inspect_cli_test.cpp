@@ -5,9 +5,7 @@
 
 #include <fstream>
 #include <nlohmann/json.hpp>
-#include <sstream>
 
-#include "align3d/cli.hpp"
 #include "align3d/error.hpp"
 #include "align3d/io/point_cloud_io.hpp"
 #include "test_util.hpp"
@@ -15,23 +13,9 @@
 namespace align3d {
 namespace {
 
-struct CliRun {
-  int code;
-  std::string out, err;
-};
-
-CliRun run(const std::vector<std::string>& args) {
-  std::ostringstream out, err;
-  const int code = cli::run(args, out, err);
-  return {code, out.str(), err.str()};
-}
-
-std::string read_text(const std::filesystem::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+using test::CliRun;
+using test::read_text;
+using test::run;
 
 std::size_t lines(const std::string& text) { return std::count(text.begin(), text.end(), '\n'); }
 
@@ -108,9 +92,9 @@ TEST_F(InspectCli, RegisterTakesAMeshAsItsTarget) {
 TEST_F(InspectCli, APpfModelOfTheMeshFeedsTheGlobalStage) {
   const CliRun m = run({"ppf-model", path("part.stl"), out("part.ppf")});
   ASSERT_EQ(m.code, 0) << m.err;
-  const CliRun r = run({"register", path("scan.ply"), path("part.stl"), "--init", "global",
-                        "--ppf-model", out("part.ppf"), "--ground-truth", path("ground_truth.txt"),
-                        "--report", "-"});
+  const CliRun r =
+      run({"register", path("scan.ply"), path("part.stl"), "--init", "global", "--ppf-model",
+           out("part.ppf"), "--ground-truth", path("ground_truth.txt"), "--report", "-"});
   ASSERT_EQ(r.code, 0) << r.err;
   const auto j = nlohmann::json::parse(r.out);
   EXPECT_EQ(j["global"]["method"], "ppf");

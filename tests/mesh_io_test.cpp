@@ -15,11 +15,9 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
-#include <sstream>
 #include <string>
 #include <vector>
 
-#include "align3d/cli.hpp"
 #include "align3d/error.hpp"
 #include "align3d/io/point_cloud_io.hpp"
 #include "io/mesh_readers.hpp"
@@ -101,8 +99,7 @@ class MeshIo : public ::testing::Test {
 
   fs::path write_file(const std::string& name, const std::string& bytes) const {
     const fs::path path = dir_ / name;
-    std::ofstream out(path, std::ios::binary);
-    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+    test::write_text(path, bytes);
     return path;
   }
   // Reads `bytes` as file `name`; expects an IoError whose message is "<path>: ..." and contains
@@ -163,8 +160,7 @@ TEST_F(MeshIo, StlRoundTripKeepsEachFacetsFloat32CornersUnwelded) {
 
 TEST_F(MeshIo, StlWriterStoresUnitFacetNormalsAndAHeaderThatIsNotSolid) {
   write_mesh(dir_ / "box.stl", box());
-  std::ifstream in(dir_ / "box.stl", std::ios::binary);
-  std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string bytes = test::read_text(dir_ / "box.stl");
   EXPECT_NE(bytes.rfind("solid", 0), 0u);
   float n[3];
   std::memcpy(n, bytes.data() + 84, sizeof n);  // the first facet, {0, 2, 1}: the z = min face
@@ -554,8 +550,7 @@ TEST_F(MeshIo, ShortReadsGiveTheSameMesh) {
     write_mesh(path, original);
     const TriangleMesh whole = read_mesh(path);
     EXPECT_EQ(whole.triangles.size(), 800u);
-    std::ifstream in(path, std::ios::binary);
-    const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const std::string bytes = test::read_text(path);
     ASSERT_GT(bytes.size(), 10000u);
     for (std::size_t max_read = 1; max_read <= 7; ++max_read) {
       detail::MemorySource source(bytes, max_read);
@@ -574,15 +569,8 @@ TEST_F(MeshIo, ShortReadsGiveTheSameMesh) {
 
 // ---- align3d convert ----
 
-struct CliRun {
-  int code;
-  std::string out, err;
-};
-CliRun run(const std::vector<std::string>& args) {
-  std::ostringstream out, err;
-  const int code = cli::run(args, out, err);
-  return {code, out.str(), err.str()};
-}
+using test::CliRun;
+using test::run;
 
 TEST_F(MeshIo, ConvertBetweenMeshFormats) {
   write_mesh(dir_ / "box.obj", box());

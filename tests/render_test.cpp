@@ -19,6 +19,7 @@
 
 #include "align3d/error.hpp"
 #include "align3d/report/colormap.hpp"
+#include "align3d/report/views_figure.hpp"
 #include "mesh_test_util.hpp"
 #include "test_util.hpp"
 

@@ -3,9 +3,13 @@
 
 #include <Eigen/Geometry>
 #include <filesystem>
+#include <fstream>
 #include <random>
+#include <sstream>
 #include <string>
+#include <vector>
 
+#include "align3d/cli.hpp"
 #include "align3d/point_cloud.hpp"
 #include "align3d/se3.hpp"
 #include "detail/random.hpp"
@@ -45,6 +49,32 @@ class TempDir {
  private:
   std::filesystem::path path_;
 };
+
+// A whole file's bytes ("" when it cannot be opened).
+inline std::string read_text(const std::filesystem::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// Writes `text` as the whole file, bytes as given.
+inline void write_text(const std::filesystem::path& p, const std::string& text) {
+  std::ofstream(p, std::ios::binary) << text;
+}
+
+// One `align3d` command line run in-process (cli::run; args[0] is the subcommand): its exit code
+// and what it printed on stdout and stderr.
+struct CliRun {
+  int code;
+  std::string out, err;
+};
+
+inline CliRun run(const std::vector<std::string>& args) {
+  std::ostringstream out, err;
+  const int code = cli::run(args, out, err);
+  return {code, out.str(), err.str()};
+}
 
 inline double rotation_error_deg(const Eigen::Isometry3d& estimate,
                                  const Eigen::Isometry3d& truth) {

@@ -28,8 +28,9 @@ struct DeviationMap {
 
 // Measures every T·points[i] (CAD ≈ T·scan) against `cad`: exact distances in double precision,
 // signs by the angle-weighted pseudo-normals. Points farther than `max_distance` are outliers.
-// Runs on `threads` threads (0: all cores); the result does not depend on it. Costs about 44 bytes
-// a point besides the input (the map itself) and the index (MeshIndex::memory_bytes()).
+// Runs on `threads` threads (0: all cores); the result does not depend on it. Memory: the map holds
+// 36 bytes a point; while it runs, 68 bytes a point more (the spatial order, the moved copy, the
+// raw answers); and the index (MeshIndex::memory_bytes(), a few tens of MB for 200k triangles).
 DeviationMap measure_deviations(const std::vector<Eigen::Vector3d>& points, const MeshIndex& cad,
                                 const Eigen::Isometry3d& T, double max_distance, int threads = 0);
 

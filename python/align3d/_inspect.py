@@ -15,8 +15,8 @@ from . import _core
 from ._cloud import PathLike, PointCloud
 from ._errors import DataError, NoSolutionError, SettingsError, StrictError
 from ._mesh import TriangleMesh, read_mesh
-from ._register import _Report, _int32, _is_path, _load, _pose, _real, _seed, _warn_all, \
-    _write_report
+from ._register import _Report, _int32, _is_path, _load, _naming_file, _pose, _real, _seed, \
+    _warn_all, _write_report
 from ._target import Target
 
 _DEFAULTS = _core.inspect_defaults()
@@ -198,13 +198,10 @@ def inspect(
             initial_pose=initial_pose, seed=_seed(seed), threads=_int32("threads", threads),
             scan_path=scan_path, cad_path=cad_path, read_ms=read_ms, units=str(units), **files)
     except DataError as e:  # name the file, as the command line does
-        path = {"source": scan_path, "target": cad_path}.get(e.subject)
-        if not path:
+        named = _naming_file(e, {"source": (scan_path, "scan"), "target": (cad_path, "CAD")})
+        if named is None:
             raise
-        role = "scan" if e.subject == "source" else "CAD"
-        error = DataError(f"{path} ({role}): {e.problem}")
-        error.subject, error.problem = f"{path} ({role})", e.problem
-        raise error from None
+        raise named from None
     result = InspectResult(json.loads(text), deviations, closest, triangles)
     if report is not None:
         _write_report(report, text)

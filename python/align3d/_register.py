@@ -91,6 +91,19 @@ def _pose(name: str, value: Any) -> Union[str, np.ndarray]:
     return os.fspath(value) if _is_path(value) else matrix(name, value)
 
 
+def _naming_file(e: DataError, files: Dict[str, Tuple[str, str]]) -> Optional[DataError]:
+    """``e``, a DataError from the extension, re-made to name its file as the command line does
+    ("scan.ply (source): ..."): ``files`` maps ``e.subject`` ("source", "target") to (the path
+    given, the role to show). None when the subject is neither or its path is empty (data in
+    memory): the caller then re-raises ``e`` as it is."""
+    path, role = files.get(e.subject, ("", ""))
+    if not path:
+        return None
+    error = DataError(f"{path} ({role}): {e.problem}")
+    error.subject, error.problem = f"{path} ({role})", e.problem
+    return error
+
+
 def _warn_all(found: List[AlignWarning]) -> None:
     for w in found:
         warnings.warn(w, stacklevel=3)
@@ -434,12 +447,11 @@ def register(
             **settings,
         )
     except DataError as e:  # name the file, as the command line does
-        path = {"source": source_path, "target": target_path}.get(e.subject)
-        if not path:
+        named = _naming_file(e, {"source": (source_path, "source"),
+                                 "target": (target_path, "target")})
+        if named is None:
             raise
-        error = DataError(f"{path} ({e.subject}): {e.problem}")
-        error.subject, error.problem = f"{path} ({e.subject})", e.problem
-        raise error from None
+        raise named from None
     result = Result(json.loads(text))
     if report is not None:
         _write_report(report, text)

@@ -139,6 +139,20 @@ void add_quiet(CLI::App* sub, bool& quiet) {
                 "stderr)");
 }
 
+void add_init(CLI::App* sub, std::string& init, const std::string& matrix_file) {
+  sub->add_option("--init", init,
+                  "Initial pose: auto (ICP from the identity, global registration too when that "
+                  "is weak), identity, global (global registration first: any starting pose), or " +
+                      matrix_file)
+      ->capture_default_str();
+}
+
+void add_seed(CLI::App* sub, std::uint64_t& seed) {
+  sub->add_option("--seed", seed, "Seed of the global stage (same seed, same pose)")
+      ->check(CLI::NonNegativeNumber)  // CLI11 would wrap -1 to 2^64 - 1
+      ->capture_default_str();
+}
+
 void add_threads(CLI::App* sub, int& threads) {
   sub->add_option("--threads", threads, "Threads (0: all cores); results do not depend on it")
       ->check(CLI::Range(0, 1024))

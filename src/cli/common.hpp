@@ -4,6 +4,7 @@
 #include <CLI/CLI.hpp>
 #include <Eigen/Geometry>
 #include <chrono>
+#include <cstdint>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -51,6 +52,10 @@ using report::write_json;  // to a file atomically, or to `out` with "-"
 
 // --init: auto, identity, global, or a file with a 4x4 matrix (read here: ICP starts there).
 void apply_init(const std::string& init, AlignSettings& settings);
+// Declare --init for apply_init (its help ends with `matrix_file`, the command's words for the
+// matrix file) and --seed of the global stage (AlignSettings::seed).
+void add_init(CLI::App* sub, std::string& init, const std::string& matrix_file);
+void add_seed(CLI::App* sub, std::uint64_t& seed);
 
 // Parses "X,Y,Z": exactly three finite numbers (throws UsageError naming `flag`).
 Eigen::Vector3d parse_vector(const std::string& text, const std::string& flag);

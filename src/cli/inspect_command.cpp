@@ -177,10 +177,7 @@ Command add_inspect(CLI::App& app, Streams io) {
   sub->add_option("--tolerance", o->tolerance,
                   "The band: T for ±T, or LOWER,UPPER (e.g. -0.05,+0.2), in data units")
       ->required();
-  sub->add_option("--init", o->init,
-                  "Initial pose: auto (ICP from the identity, global registration too when that "
-                  "is weak), identity, global, or a 4x4 matrix file (scan → CAD)")
-      ->capture_default_str();
+  add_init(sub, o->init, "a file with a 4x4 matrix (scan → CAD; ICP starts there)");
   sub->add_option("--max-distance", s.max_distance,
                   "Points farther than this from every surface are outliers (data units); 0: the "
                   "larger of 5 x the band's larger half and 1 % of the CAD model's diagonal")
@@ -206,9 +203,7 @@ Command add_inspect(CLI::App& app, Streams io) {
                   "STEP/IGES: tessellation chord tolerance (data units); 0: 1e-4 x the diagonal")
       ->check(finite_non_negative())
       ->capture_default_str();
-  sub->add_option("--seed", s.align.seed, "Seed of the global stage")
-      ->check(CLI::NonNegativeNumber)
-      ->capture_default_str();
+  add_seed(sub, s.align.seed);
   sub->add_flag("--strict", o->strict, "Exit with code 7 when the result comes with warnings");
   add_quiet(sub, o->quiet);
   add_threads(sub, s.threads);

@@ -160,11 +160,7 @@ Command add_register(CLI::App& app, Streams io) {
   sub->add_option("--method", o->method, "Final ICP metric")
       ->check(CLI::IsMember({"point-to-point", "point-to-plane"}))
       ->capture_default_str();
-  sub->add_option("--init", o->init,
-                  "Initial pose: auto (ICP from the identity, global registration too when that "
-                  "is weak), identity, global (global registration first: any starting pose), or "
-                  "a file with a 4x4 matrix (4 rows of 4 numbers; ICP starts there)")
-      ->capture_default_str();
+  add_init(sub, o->init, "a file with a 4x4 matrix (4 rows of 4 numbers; ICP starts there)");
   sub->add_option("--global", o->global,
                   "Global method: fpfh (descriptors + RANSAC) or ppf (point pair features, "
                   "model-to-scene; the model is the smaller cloud)")
@@ -178,9 +174,7 @@ Command add_register(CLI::App& app, Streams io) {
                   "cloud's extent / 50 (its bulk: 0.5-99.5 percentiles), at least 3 point spacings")
       ->check(finite_non_negative())
       ->capture_default_str();
-  sub->add_option("--seed", s.seed, "Seed of the global stage (same seed, same pose)")
-      ->check(CLI::NonNegativeNumber)  // CLI11 would wrap -1 to 2^64 - 1
-      ->capture_default_str();
+  add_seed(sub, s.seed);
   sub->add_flag("--mutual", s.global.mutual_filter,
                 "fpfh: keep only mutual descriptor nearest neighbours (fewer, cleaner matches)");
   sub->add_option("--reject", o->reject,

@@ -4,43 +4,29 @@
 #include <cairo-svg.h>
 
 #include <cmath>
-#include <memory>
+#include <cstdint>
 #include <numbers>
 #include <stdexcept>
 
 #include "align3d/error.hpp"
 #include "align3d/io/atomic_file.hpp"
+#include "align3d/report/render.hpp"  // Raster
 
 namespace align3d::report::detail {
 namespace {
 
 constexpr const char* kFontFamily = "DejaVu Sans";  // fontconfig falls back to the default sans
 
-struct SurfaceDeleter {
-  void operator()(cairo_surface_t* s) const { cairo_surface_destroy(s); }
-};
-struct ContextDeleter {
-  void operator()(cairo_t* c) const { cairo_destroy(c); }
-};
-using SurfacePtr = std::unique_ptr<cairo_surface_t, SurfaceDeleter>;
-using ContextPtr = std::unique_ptr<cairo_t, ContextDeleter>;
-
-void check(cairo_status_t status, const std::filesystem::path& destination) {
-  if (status != CAIRO_STATUS_SUCCESS) {
-    throw OutputError(destination, std::string("cannot write: ") + cairo_status_to_string(status));
-  }
-}
-
 void render(cairo_surface_t* surface, const Painter& paint,
             const std::filesystem::path& destination) {
-  check(cairo_surface_status(surface), destination);
+  check_cairo(cairo_surface_status(surface), destination);
   const ContextPtr cr(cairo_create(surface));
-  check(cairo_status(cr.get()), destination);
+  check_cairo(cairo_status(cr.get()), destination);
   paint(cr.get());
   if (cairo_status(cr.get()) == CAIRO_STATUS_INVALID_STRING) {
     throw std::invalid_argument("figure: a title, label, tick or legend text is not valid UTF-8");
   }
-  check(cairo_status(cr.get()), destination);
+  check_cairo(cairo_status(cr.get()), destination);
 }
 
 void write_svg(const Painter& paint, int width, int height, const std::filesystem::path& tmp,
@@ -48,7 +34,7 @@ void write_svg(const Painter& paint, int width, int height, const std::filesyste
   const SurfacePtr surface(cairo_svg_surface_create(tmp.c_str(), width, height));
   render(surface.get(), paint, destination);
   cairo_surface_finish(surface.get());  // writes and closes the file; errors land in the status
-  check(cairo_surface_status(surface.get()), destination);
+  check_cairo(cairo_surface_status(surface.get()), destination);
 }
 
 void write_png(const Painter& paint, int width, int height, const std::filesystem::path& tmp,
@@ -56,7 +42,7 @@ void write_png(const Painter& paint, int width, int height, const std::filesyste
   const SurfacePtr surface(cairo_image_surface_create(CAIRO_FORMAT_ARGB32, width, height));
   render(surface.get(), paint, destination);
   cairo_surface_flush(surface.get());
-  check(cairo_surface_write_to_png(surface.get(), tmp.c_str()), destination);
+  check_cairo(cairo_surface_write_to_png(surface.get(), tmp.c_str()), destination);
 }
 
 std::filesystem::path with_suffix(const std::filesystem::path& stem, const char* suffix) {
@@ -66,6 +52,21 @@ std::filesystem::path with_suffix(const std::filesystem::path& stem, const char*
 }
 
 }  // namespace
+
+void check_cairo(cairo_status_t status, const std::filesystem::path& destination) {
+  if (status != CAIRO_STATUS_SUCCESS) {
+    throw OutputError(destination, std::string("cannot write: ") + cairo_status_to_string(status));
+  }
+}
+
+SurfacePtr raster_surface(const Raster& image) {
+  const int stride = cairo_format_stride_for_width(CAIRO_FORMAT_ARGB32, image.width);
+  if (stride != 4 * image.width) throw std::logic_error("render: unexpected ARGB32 stride");
+  // cairo only reads through this pointer here: the surfaces are sources or written to PNG.
+  auto* data = reinterpret_cast<unsigned char*>(const_cast<std::uint32_t*>(image.pixels.data()));
+  return SurfacePtr(cairo_image_surface_create_for_data(data, CAIRO_FORMAT_ARGB32, image.width,
+                                                        image.height, stride));
+}
 
 Fonts fonts_for(double width, double height, double min_scale) {
   const double s = std::clamp(std::min(width / 900.0, height / 600.0), min_scale, 3.0);

@@ -1,7 +1,8 @@
-// What every figure kind (plot.cpp, heatmap.cpp) draws with: fonts and text, colours, the page, and
-// the output. A figure kind paints its drawing onto any cairo context; write_svg_and_png runs it
-// once on an SVG surface and once on an ARGB32 image surface saved as PNG, so both files show the
-// same picture. Layout is measured with the context being drawn on. Private to the report library.
+// What every figure kind (plot.cpp, heatmap.cpp, views_figure.cpp) draws with: fonts and text,
+// colours, the page, and the output. A figure kind paints its drawing onto any cairo context;
+// write_svg_and_png runs it once on an SVG surface and once on an ARGB32 image surface saved as
+// PNG, so both files show the same picture. Layout is measured with the context being drawn on.
+// Private to the report library.
 #pragma once
 
 #include <cairo.h>
@@ -10,9 +11,14 @@
 #include <filesystem>
 #include <functional>
 #include <limits>
+#include <memory>
 #include <string>
 
 #include "align3d/report/plot.hpp"  // Rgb
+
+namespace align3d::report {
+struct Raster;  // render.hpp
+}  // namespace align3d::report
 
 namespace align3d::report::detail {
 
@@ -66,6 +72,24 @@ void set_color(cairo_t* cr, const Rgb& c, double alpha);  // components and alph
 void begin_page(cairo_t* cr);
 
 // Output
+
+// Owners of cairo's objects: destroyed when they go out of scope.
+struct SurfaceDeleter {
+  void operator()(cairo_surface_t* s) const { cairo_surface_destroy(s); }
+};
+struct ContextDeleter {
+  void operator()(cairo_t* c) const { cairo_destroy(c); }
+};
+using SurfacePtr = std::unique_ptr<cairo_surface_t, SurfaceDeleter>;
+using ContextPtr = std::unique_ptr<cairo_t, ContextDeleter>;
+
+// Throws OutputError naming `destination` ("cannot write: " and cairo's reason) unless `status`
+// is CAIRO_STATUS_SUCCESS.
+void check_cairo(cairo_status_t status, const std::filesystem::path& destination);
+
+// A cairo surface over the raster's pixels (no copy; the raster must outlive the surface, which
+// only reads them: use it as a source or write it to PNG).
+SurfacePtr raster_surface(const Raster& image);
 
 using Painter = std::function<void(cairo_t*)>;
 

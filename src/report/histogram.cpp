@@ -8,7 +8,7 @@
 
 #include "align3d/report/colormap.hpp"
 #include "align3d/report/plot.hpp"
-#include "align3d/report/render.hpp"
+#include "align3d/report/views_figure.hpp"  // band_value, format_deviation, format_count
 
 namespace align3d::report {
 namespace {

@@ -17,6 +17,7 @@
 #include "align3d/report/histogram.hpp"
 #include "align3d/report/html.hpp"
 #include "align3d/report/render.hpp"
+#include "align3d/report/views_figure.hpp"
 
 namespace align3d::report {
 namespace {

@@ -19,6 +19,7 @@
 // Deterministic (one thread; same input, same pixels). One thread is enough: an 800 × 600 view of
 // the generated part with 2 million points took 40-80 ms (90-150 ms on a loaded machine), mesh
 // and edges included. No point is ever skipped: the density is part of what a reader sees.
+// The four views composed into one figure with a colour bar: views_figure.hpp.
 #pragma once
 
 #include <Eigen/Geometry>
@@ -26,7 +27,6 @@
 #include <cstdint>
 #include <filesystem>
 #include <span>
-#include <string>
 #include <vector>
 
 #include "align3d/inspect.hpp"
@@ -85,6 +85,7 @@ ViewCamera fit_view(const TriangleMesh& mesh, View view, int width, int height, 
 
 // An opaque image in cairo's ARGB32 layout (native-endian 0xAARRGGBB words, rows top to bottom,
 // no padding), ready for cairo_image_surface_create_for_data.
+inline constexpr std::uint32_t kViewBackground = 0xffffffffu;  // white: no mesh and no point
 struct Raster {
   int width = 0, height = 0;
   std::vector<std::uint32_t> pixels;
@@ -107,32 +108,7 @@ struct ViewImage {
 ViewImage render_view(const TriangleMesh& mesh, const DeviationPoints& points, View view,
                       const ViewSettings& settings = {});
 
-// Numbers as the inspection's figures and page print them (`units` may be empty):
-// a limit of the band as given: "+0.1 mm", "0 mm", "−0.05 mm" (six significant digits at most);
-std::string band_value(double value, const std::string& units);
-// a measured deviation to a thousandth of the band's width (0.2 mm wide: 4 decimals), with a sign
-// when `sign` ("+0.0123 mm", "−0.0040 mm"); NaN as "–".
-std::string format_deviation(double value, const Tolerance& band, const std::string& units,
-                             bool sign = true);
-// a count with thin spaces (U+2009) between groups of three digits: "1 234 567".
-std::string format_count(std::size_t n);
-
 // Writes the image as a PNG, atomically (io/atomic_file.hpp). Throws OutputError naming `png`.
 void write_png(const Raster& image, const std::filesystem::path& png);
-
-// The four views in a 2 × 2 grid (top, front; side, isometric), each titled with its name and its
-// axes and marked with an axis triad, and on the right one vertical colour bar of the band: the
-// in-band colours from the lower limit (bottom) through 0 to the upper limit, labelled with their
-// values and `units`, the out-of-band colours as "above" and "below" boxes at its ends and the
-// outlier grey as an "outlier" box under it.
-struct ViewsFigureSettings {
-  ViewSettings view{640, 480};  // each panel's view
-  std::string units = "mm";     // appended to the colour bar's values (may be empty)
-  std::string title;            // above the grid (may be empty)
-};
-// Writes `png` atomically; throws as render_view, OutputError when the file cannot be written and
-// std::invalid_argument when a text is not UTF-8.
-void write_views_figure(const TriangleMesh& mesh, const DeviationPoints& points,
-                        const std::filesystem::path& png, const ViewsFigureSettings& settings = {});
 
 }  // namespace align3d::report
