@@ -11,7 +11,8 @@ The C++ is compiled once:
     passes build/) and builds only the module there (nothing, when it is up to date);
   - otherwise a tree of its own, build-python/cmake (Release, no tests), is configured on first use
     and kept, so a second install builds only what changed.
-JOBS (or CMAKE_BUILD_PARALLEL_LEVEL) sets the parallel build jobs, default 2. setuptools' own
+JOBS (or CMAKE_BUILD_PARALLEL_LEVEL) sets the parallel build jobs, default 2; ALIGN3D_OCCT (ON or
+OFF) the STEP/IGES reader, default ON when OpenCASCADE's headers are installed. setuptools' own
 files go to build-python/ too (not into build/, the CMake tree of scripts/build.sh).
 """
 
@@ -72,6 +73,12 @@ class CMakeBuild(build_ext):
         tree = OWN_TREE / "cmake"
         args = ["-S", ROOT, "-B", tree, "-DCMAKE_BUILD_TYPE=Release", "-DALIGN3D_PYTHON=ON",
                 "-DALIGN3D_BUILD_TESTS=OFF", f"-DPython3_EXECUTABLE={sys.executable}"]
+        # STEP and IGES as scripts/build.sh builds them: with OpenCASCADE when its headers are
+        # installed (scripts/setup.sh), unless ALIGN3D_OCCT says otherwise.
+        occt = os.environ.get("ALIGN3D_OCCT")
+        if occt is None:
+            occt = "ON" if Path("/usr/include/opencascade/Standard_Version.hxx").is_file() else "OFF"
+        args.append(f"-DALIGN3D_OCCT={occt}")
         if shutil.which("ninja") and not (tree / "CMakeCache.txt").is_file():
             args += ["-G", "Ninja"]
         try:  # python3-pybind11's CMake files, where pybind11-dev's are not installed

@@ -7,7 +7,9 @@ default_pkgs=(build-essential cmake ninja-build pkg-config ca-certificates clang
       libeigen3-dev libnanoflann-dev libcli11-dev nlohmann-json3-dev libfast-float-dev
       liblzf-dev libcairo2-dev fonts-dejavu-core libgtest-dev libgmock-dev libbenchmark-dev
       python3 python3-dev python3-venv python3-pip python3-numpy python3-setuptools python3-wheel
-      python3-pybind11 pybind11-dev python3-pytest python3-distributed)
+      python3-pybind11 pybind11-dev python3-pytest python3-distributed
+      libocct-foundation-dev libocct-modeling-data-dev libocct-modeling-algorithms-dev
+      libocct-data-exchange-dev)
 [ $# -gt 0 ] && pkgs=("$@") || pkgs=("${default_pkgs[@]}")
 missing=()
 for p in "${pkgs[@]}"; do

@@ -14,8 +14,10 @@
 //   .off              text OFF (also COFF, NOFF, STOFF headers, or none): counts, one vertex per
 //                     line (extra values ignored), one face per line (a trailing colour ignored)
 //   .step .stp .iges .igs  through OpenCASCADE when align3d was built with ALIGN3D_OCCT (every
-//                     solid and face of the file, tessellated to MeshReadSettings' chord
-//                     tolerance); without it an IoError says so
+//                     solid and face of the file, in millimetres converted from the file's own
+//                     unit, tessellated to MeshReadSettings' chord tolerance; read in a child
+//                     process, so that OpenCASCADE crashing on a corrupted file is an IoError,
+//                     not the caller's end); without it an IoError says so
 // Any other extension is an IoError.
 //
 // Contract, as for the point readers (point_cloud_io.hpp): a missing, unreadable, malformed or
