@@ -466,8 +466,8 @@ std::vector<TruthRecord> read_truth(const std::filesystem::path& path) {
     char record[18];
     in.read(record, sizeof record);
     std::memcpy(r.position.data(), record, 12);  // the test machine is little-endian
-    r.label = static_cast<std::uint8_t>(record[12]);
-    std::memcpy(&r.deviation, record + 13, 4);
+    std::memcpy(&r.deviation, record + 12, 4);   // x y z deviation label view (scene.json)
+    r.label = static_cast<std::uint8_t>(record[16]);
     r.view = static_cast<std::uint8_t>(record[17]);
   }
   EXPECT_TRUE(in.good());

@@ -423,7 +423,10 @@ TriangleMesh deserialise(const std::string& bytes, double& chord) {
   mesh.vertices.resize(counts[0]);
   mesh.triangles.resize(counts[1]);
   const char* data = bytes.data() + sizeof chord + sizeof counts;
-  std::memcpy(mesh.vertices.data(), data, counts[0] * sizeof(Eigen::Vector3d));
+  for (std::size_t i = 0; i < counts[0]; ++i) {  // Eigen's vector is not trivially copyable
+    std::memcpy(mesh.vertices[i].data(), data + i * sizeof(Eigen::Vector3d),
+                sizeof(Eigen::Vector3d));
+  }
   std::memcpy(mesh.triangles.data(), data + counts[0] * sizeof(Eigen::Vector3d),
               counts[1] * sizeof(mesh.triangles[0]));
   return mesh;

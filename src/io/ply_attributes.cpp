@@ -10,19 +10,25 @@
 namespace align3d::io {
 namespace {
 
+template <class T>
+void check_property(const std::string& name, const std::vector<T>& values, std::size_t points,
+                    std::set<std::string>& names) {
+  const bool identifier =
+      !name.empty() && std::all_of(name.begin(), name.end(),
+                                   [](unsigned char c) { return std::isalnum(c) || c == '_'; });
+  if (!identifier || !names.insert(name).second)
+    throw std::invalid_argument("write_ply: bad or repeated property name '" + name + "'");
+  if (values.size() != points)
+    throw std::invalid_argument("write_ply: property '" + name + "' has " +
+                                std::to_string(values.size()) + " values for " +
+                                std::to_string(points) + " points");
+}
+
 void check(const std::vector<Eigen::Vector3d>& positions, const PlyAttributes& a) {
   std::set<std::string> names = {"x", "y", "z", "red", "green", "blue"};
-  for (const auto& [name, values] : a.scalars) {
-    const bool identifier =
-        !name.empty() && std::all_of(name.begin(), name.end(),
-                                     [](unsigned char c) { return std::isalnum(c) || c == '_'; });
-    if (!identifier || !names.insert(name).second)
-      throw std::invalid_argument("write_ply: bad or repeated property name '" + name + "'");
-    if (values.size() != positions.size())
-      throw std::invalid_argument("write_ply: property '" + name + "' has " +
-                                  std::to_string(values.size()) + " values for " +
-                                  std::to_string(positions.size()) + " points");
-  }
+  for (const auto& [name, values] : a.scalars)
+    check_property(name, values, positions.size(), names);
+  for (const auto& [name, values] : a.bytes) check_property(name, values, positions.size(), names);
   if (!a.colors.empty() && a.colors.size() != positions.size())
     throw std::invalid_argument("write_ply: " + std::to_string(a.colors.size()) + " colours for " +
                                 std::to_string(positions.size()) + " points");
@@ -37,6 +43,7 @@ void write_ply(const std::filesystem::path& path, const std::vector<Eigen::Vecto
   header += "element vertex " + std::to_string(positions.size()) +
             "\nproperty float x\nproperty float y\nproperty float z\n";
   for (const auto& scalar : a.scalars) header += "property float " + scalar.first + "\n";
+  for (const auto& byte : a.bytes) header += "property uchar " + byte.first + "\n";
   if (!a.colors.empty())
     header += "property uchar red\nproperty uchar green\nproperty uchar blue\n";
   header += "end_header\n";
@@ -49,6 +56,7 @@ void write_ply(const std::filesystem::path& path, const std::vector<Eigen::Vecto
       for (int k = 0; k < 3; ++k)
         detail::append_bytes(buffer, detail::to_float(positions[i][k]), swap);
       for (const auto& scalar : a.scalars) detail::append_bytes(buffer, scalar.second[i], swap);
+      for (const auto& byte : a.bytes) buffer += static_cast<char>(byte.second[i]);
       if (!a.colors.empty())
         for (std::uint8_t c : a.colors[i]) buffer += static_cast<char>(c);
       output.maybe_flush();
