@@ -41,6 +41,10 @@ rounds only. --baseline-build [LABEL=]DIR adds
 the row `align3d (LABEL)` (default label: baseline): DIR/align3d_run, another build of align3d
 (e.g. main's), interleaved with the others, to compare versions on the same data in the same run;
 it may be given more than once.
+
+The deviation step of `align3d inspect` (signed distances of a scan to a CAD mesh) against
+CloudCompare's C2M and Open3D's RaycastingScene: `bench/compare.py inspect [OPTIONS]`, which runs
+bench/compare_inspect.py (its own --help; it shares this file's machine helpers).
 """
 import argparse
 import atexit
@@ -460,4 +464,7 @@ def main():
 
 
 if __name__ == "__main__":
+    if sys.argv[1:2] == ["inspect"]:  # the deviation step's peers (compare_inspect.py)
+        os.execv(sys.executable, [sys.executable, os.path.join(REPO, "bench", "compare_inspect.py")]
+                 + sys.argv[2:])
     main()

@@ -95,6 +95,7 @@ class InspectResult(_Report):
 
     @property
     def passed(self) -> bool:
+        """True when the verdict is ``"pass"``."""
         return self._report["verdict"] == "pass"
 
     @property
@@ -104,10 +105,13 @@ class InspectResult(_Report):
 
     @property
     def outliers(self) -> int:
+        """Scan points farther than ``max_distance`` from every surface: left out of the
+        statistics, NaN in :attr:`deviations`."""
         return self._report["outliers"]
 
     @property
     def tolerance(self) -> Tuple[float, float]:
+        """The band (lower, upper) around 0, in the data's units."""
         t = self._report["tolerance"]
         return t["lower"], t["upper"]
 

@@ -39,11 +39,14 @@ def test_a_hostile_file_is_an_exception_naming_it(file, command, code, phrase, t
         "init": lambda: align3d.register(good, good, init=path),
         "ground-truth": lambda: align3d.register(good, good, ground_truth=path),
         "rectify": lambda: align3d.rectify(path),
+        "convert-mesh": lambda: align3d.convert(path, tmp_path / "mesh.ply"),
     }[command]
     expected = {3: align3d.FileError, 4: align3d.DataError}[code]
     with pytest.raises(expected) as raised:
         call()
     error = raised.value
+    if "built with OpenCASCADE" in str(error):  # every STEP and IGES file without it (README)
+        pytest.skip("align3d built without OpenCASCADE (ALIGN3D_OCCT)")
     assert error.code == code
     assert path in str(error), "the message does not name the file"
     assert phrase in str(error)
