@@ -13,7 +13,9 @@
 
 #include "align3d/error.hpp"
 #include "align3d/io/matrix_io.hpp"
+#include "align3d/io/mesh_io.hpp"
 #include "align3d/io/point_cloud_io.hpp"
+#include "align3d/mesh_index.hpp"
 #include "align3d/synth/depth_scenes.hpp"
 #include "detail/random.hpp"
 #include "test_util.hpp"
@@ -649,10 +651,10 @@ Eigen::Isometry3d json_matrix(const nlohmann::json& j) {
 }
 
 // The bin scene read back: an organized 640 × 480 PCD with its NaN, whose labelled pixels the
-// instance files map onto the test object (float32 storage adds ~1e-4 mm at 1 m).
+// instance files map onto the part's mesh (float32 storage adds ~1e-4 mm at 1 m).
 TEST(CliSynth, BinSceneReadsBackOrganizedWithItsGroundTruth) {
   test::TempDir d("synth_bin");
-  const CliRun r = run({"synth", "--scene", "bin", d.path().string(), "--instances", "2"});
+  const CliRun r = run({"synth", "--scene", "bin", d.path().string(), "--instances", "3"});
   ASSERT_EQ(r.code, 0) << r.err;
   const auto j = nlohmann::json::parse(read_text(d / "scene.json"));
   const std::string pcd = read_text(d / "scene.pcd");
@@ -666,16 +668,16 @@ TEST(CliSynth, BinSceneReadsBackOrganizedWithItsGroundTruth) {
   EXPECT_EQ(cloud.size() + info.dropped_non_finite, 307200u);
   EXPECT_EQ(cloud.size(), j["cloud"]["valid_points"].get<std::size_t>());
   EXPECT_GT(info.dropped_non_finite, 3000u);  // at least the 1 % dropout
-  const PointCloud model = io::read_point_cloud(d / "model.ply");
-  EXPECT_EQ(model.size(), 20000u);
-  EXPECT_TRUE(model.has_normals());
+  const MeshIndex model(io::read_mesh(d / "model.stl"));
+  EXPECT_EQ(j["model"]["part"], "bracket");
+  EXPECT_EQ(j["model"]["triangles"].get<std::size_t>(), model.mesh().triangles.size());
 
   const std::string labels = read_text(d / "instances.pgm");
   ASSERT_EQ(labels.substr(0, 15), "P5\n640 480\n255\n");
   ASSERT_EQ(labels.size(), 15 + 307200u);
-  ASSERT_EQ(j["instances"].size(), 2u);
+  ASSERT_EQ(j["instances"].size(), 3u);
   const synth::DepthSensorSettings sensor;
-  for (int k = 0; k < 2; ++k) {
+  for (int k = 0; k < 3; ++k) {
     const auto& inst = j["instances"][static_cast<std::size_t>(k)];
     const Eigen::Isometry3d T = io::read_matrix(d / inst["file"].get<std::string>());
     EXPECT_TRUE(T.isApprox(json_matrix(inst["transformation"]), 1e-12));
@@ -687,20 +689,26 @@ TEST(CliSynth, BinSceneReadsBackOrganizedWithItsGroundTruth) {
       std::memcpy(xyz, pcd.data() + data + layout.size() + 12 * i, 12);  // little-endian host
       const Eigen::Vector3d p(xyz[0], xyz[1], xyz[2]);
       ASSERT_TRUE(p.allFinite());
-      ASSERT_LT(test_object_distance(T.inverse() * p), 6 * sensor.sigma(p.z()) + 1e-3);
+      SurfacePoint c;
+      ASSERT_TRUE(model.closest(T.inverse() * p, c));
+      ASSERT_LT(std::sqrt(c.sq_distance), 6 * sensor.sigma(p.z()) + 1e-3);
     }
     EXPECT_EQ(pixels, inst["pixels"].get<std::size_t>());
-    EXPECT_GT(pixels, 2000u);
+    const double visible = inst["visible_fraction"].get<double>();
+    EXPECT_TRUE(visible >= 0 && visible <= 1) << visible;
+    if (visible > 0.5) {
+      EXPECT_GT(pixels, 1000u);
+    }
   }
-  // The floor in the camera frame: the camera 900 mm above it.
+  // The bin's inside bottom in the camera frame: the camera 1000 mm above the floor, 12 mm below.
   const Eigen::Vector3d n(j["floor"]["normal"][0], j["floor"]["normal"][1],
                           j["floor"]["normal"][2]);
   const Eigen::Vector3d q(j["floor"]["point"][0], j["floor"]["point"][1], j["floor"]["point"][2]);
-  EXPECT_NEAR(n.dot(-q), 900, 1e-9);
+  EXPECT_NEAR(n.dot(-q), 988, 1e-9);
 
   test::TempDir again("synth_bin_again");
-  ASSERT_EQ(run({"synth", "--scene", "bin", again.path().string(), "--instances", "2"}).code, 0);
-  for (const char* f : {"scene.pcd", "model.ply", "instance_0.txt", "instance_1.txt",
+  ASSERT_EQ(run({"synth", "--scene", "bin", again.path().string(), "--instances", "3"}).code, 0);
+  for (const char* f : {"scene.pcd", "model.stl", "instance_0.txt", "instance_1.txt",
                         "instances.pgm", "scene.json"})
     EXPECT_EQ(read_text(again / f), read_text(d / f)) << f;
 }

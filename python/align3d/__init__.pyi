@@ -257,6 +257,8 @@ def synth(
     variant: Optional[str] = ...,
     points: Optional[int] = ...,
     instances: Optional[int] = ...,
+    part: Optional[str] = ...,
+    distractors: Optional[int] = ...,
     azimuth: Optional[float] = ...,
     angle: Optional[float] = ...,
     views: Optional[int] = ...,

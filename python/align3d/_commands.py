@@ -59,6 +59,8 @@ def synth(
     variant: Optional[str] = None,
     points: Optional[int] = None,
     instances: Optional[int] = None,
+    part: Optional[str] = None,
+    distractors: Optional[int] = None,
     azimuth: Optional[float] = None,
     angle: Optional[float] = None,
     views: Optional[int] = None,
@@ -72,7 +74,10 @@ def synth(
     ``scan.ply`` the source, ``ground_truth.txt`` with model ≈ T·scan, ``plate.ply`` and
     ``plate_cluttered.ply``; ``variant`` picks a harder geometry: ``wide-plane``,
     ``small-features``, ``large-offset``, ``extreme``), ``"parts"`` (a work cell of ``points``
-    points a cloud), ``"bin"`` (a depth camera above a bin with ``instances`` objects) or
+    points a cloud), ``"bin"`` (an organized depth image ``scene.pcd`` of a bin into which ``instances`` copies of
+    ``part`` — ``"bracket"``, no symmetry, or ``"flange"``, rotationally symmetric — and
+    ``distractors`` other objects were dropped; ``model.stl``, each instance's pose and visible
+    fraction) or
     ``"views"`` (``views`` range scans of an object, the first at ``azimuth``, then every
     ``angle`` degrees) or ``"part"`` (a machined part's CAD mesh ``part.stl`` and its as-built
     scan with dents, bumps, warp, noise ``noise`` (mm), a fixture and a known pose, about
@@ -81,7 +86,8 @@ def synth(
     point's label and true deviation). ``seed``: the same seed writes the same bytes (default 39).
     Read the clouds with :func:`read_point_cloud` and the truth with :func:`read_matrix`."""
     run("synth", [outdir], dict(scene=scene, seed=seed, variant=variant, points=points,
-                                instances=instances, azimuth=azimuth, angle=angle, views=views,
+                                instances=instances, part=part, distractors=distractors,
+                                azimuth=azimuth, angle=angle, views=views,
                                 noise=noise, triangles=triangles))
     return _json(Path(outdir) / "scene.json")
 

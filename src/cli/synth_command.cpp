@@ -23,7 +23,9 @@ struct SynthOptions {
   std::string variant = "chapter";
   std::string scene = "chapter";
   int points = 100000;
-  int instances = 1;
+  int instances = 6;  // --scene bin
+  std::string part = "bracket";
+  int distractors = 3;
   double azimuth = 30;
   double angle = 60;
   int views = 2;
@@ -153,9 +155,10 @@ Command add_synth(CLI::App& app, Streams io) {
       "With --scene parts: a benchmark work cell of --points points (floor, back wall, 48 "
       "boxes, cylinders and domes; the scan an independent sampling with 70 % overlap, 10°, "
       "noise 0.1 mm, 2 % outliers): model.ply, scan.ply, ground_truth.txt, scene.json.\n"
-      "With --scene bin: a 640x480 depth camera 0.9 m above a bin with --instances copies of a "
-      "test object and clutter: scene.pcd (organized, NaN kept, camera frame), model.ply, "
-      "instance_K.txt (scene ≈ T·model), instances.pgm (labels), scene.json.\n"
+      "With --scene bin: a 640x480 depth camera 1 m above a bin into which --instances copies of "
+      "--part and --distractors other objects were dropped: scene.pcd (organized, NaN kept, "
+      "camera frame), model.stl (the part), instance_K.txt (scene ≈ T·model), instances.pgm "
+      "(labels), scene.json (poses, visible fractions).\n"
       "With --scene views: --views range scans of the test object, the first at --azimuth, "
       "then every --angle degrees: "
       "view_K.pcd (organized, own camera frame), model.ply, view_K.txt (view_K ≈ T·model), "
@@ -183,8 +186,16 @@ Command add_synth(CLI::App& app, Streams io) {
                       "(--scene part, the raster's pitch chosen to match; default pitch 0.3 mm)")
           ->check(CLI::Range(10, 100000000))
           ->capture_default_str();
-  sub->add_option("--instances", o->instances,
-                  "Test objects in the bin (--scene bin; up to 3 fit for any seed)")
+  sub->add_option("--instances", o->instances, "Parts dropped into the bin (--scene bin)")
+      ->check(CLI::Range(0, 12))
+      ->capture_default_str();
+  sub->add_option("--part", o->part,
+                  "The part in the bin (--scene bin): bracket (no symmetry) or flange (turned, "
+                  "rotationally symmetric)")
+      ->check(CLI::IsMember({"bracket", "flange"}))
+      ->capture_default_str();
+  sub->add_option("--distractors", o->distractors,
+                  "Boxes, cylinders and spheres dropped among the parts (--scene bin)")
       ->check(CLI::Range(0, 20))
       ->capture_default_str();
   sub->add_option("--angle", o->angle, "Azimuth step between the views in degrees (--scene views)")
@@ -216,11 +227,12 @@ Command add_synth(CLI::App& app, Streams io) {
             }
             if (o->scene == "bin") {
               make_directory(o->outdir);
-              const nlohmann::json j = write_bin_scene(o->outdir, o->seed, o->instances);
+              const nlohmann::json j =
+                  write_bin_scene(o->outdir, {o->seed, o->part, o->instances, o->distractors});
               io.out << "wrote " << o->outdir << ": scene.pcd " << j["cloud"]["width"] << "x"
                      << j["cloud"]["height"] << " (" << j["cloud"]["valid_points"]
-                     << " valid points), model " << j["model"]["points"] << " points, "
-                     << j["instances"].size() << " instance(s)\n";
+                     << " valid points), model.stl (" << o->part << "), " << j["instances"].size()
+                     << " instance(s), " << j["distractors"] << " distractor(s)\n";
               return 0;
             }
             if (o->scene == "views") {

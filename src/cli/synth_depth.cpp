@@ -7,7 +7,10 @@
 #include "align3d/error.hpp"
 #include "align3d/io/atomic_file.hpp"
 #include "align3d/io/matrix_io.hpp"
+#include "align3d/io/mesh_io.hpp"
 #include "align3d/io/point_cloud_io.hpp"
+#include "align3d/mesh.hpp"
+#include "align3d/synth/bin_picking.hpp"
 #include "align3d/synth/depth_scenes.hpp"
 #include "common.hpp"
 
@@ -84,56 +87,64 @@ nlohmann::json model_json(const PointCloud& model) {
 
 }  // namespace
 
-nlohmann::json write_bin_scene(const std::filesystem::path& outdir, std::uint64_t seed,
-                               int instances) {
-  synth::BinSceneSettings s;
-  s.seed = seed;
-  s.instances = instances;
-  synth::BinScene scene;
-  try {
-    scene = synth::make_bin_scene(s);
-  } catch (const std::invalid_argument& e) {  // too many instances for the bin
-    throw UsageError(std::string("--instances: ") + e.what());
-  }
+nlohmann::json write_bin_scene(const std::filesystem::path& outdir, const BinSceneOptions& o) {
+  synth::BinPickingSettings s;
+  s.seed = o.seed;
+  s.instances = o.instances;
+  s.distractors = o.distractors;
+  s.part = synth::bin_part_from_string(o.part);
+  const synth::BinPickingScene scene = synth::make_bin_picking_scene(s);
   write_organized_pcd(outdir / "scene.pcd", scene.cloud);
-  io::write_ply(outdir / "model.ply", scene.model);
-  write_label_pgm(outdir / "instances.pgm", scene.cloud.width, scene.cloud.height, scene.instance);
+  io::write_mesh(outdir / "model.stl", scene.model);
+  write_label_pgm(outdir / "instances.pgm", scene.cloud.width, scene.cloud.height,
+                  scene.cloud.shape);
   nlohmann::json list = nlohmann::json::array();
-  for (std::size_t k = 0; k < scene.T_camera_object.size(); ++k) {
+  for (std::size_t k = 0; k < scene.instances.size(); ++k) {
+    const synth::BinPickingInstance& in = scene.instances[k];
     const std::string file = "instance_" + std::to_string(k) + ".txt";
-    io::write_matrix(outdir / file, scene.T_camera_object[k]);
-    std::size_t pixels = 0;
-    for (int label : scene.instance) pixels += label == static_cast<int>(k);
+    io::write_matrix(outdir / file, in.T_camera_model);
     list.push_back({{"file", file},
                     {"meaning", "maps the model into the scene (camera frame): scene ≈ T·model"},
-                    {"transformation", to_json(scene.T_camera_object[k])},
-                    {"pixels", pixels}});
+                    {"transformation", to_json(in.T_camera_model)},
+                    {"pixels", in.pixels},
+                    {"visible_fraction", in.visible_fraction}});
   }
+  const bool flange = s.part == synth::BinPart::kFlange;
   nlohmann::json json = {
       {"units", "mm"},
-      {"seed", seed},
+      {"seed", o.seed},
       {"scene", "bin"},
       {"cloud", cloud_json("scene.pcd", scene.cloud)},
-      {"model", model_json(scene.model)},
+      {"model",
+       {{"file", "model.stl"},
+        {"part", o.part},
+        {"triangles", scene.model.triangles.size()},
+        {"diameter", bounding_box_diagonal(scene.model)},
+        {"frame", "the part's CAD frame: resting on z = 0, z up"},
+        {"symmetry", flange ? "continuous rotation about the model's z axis" : "none"}}},
       {"instances", list},
+      {"visible_fraction",
+       "pixels where the instance is the first surface ÷ pixels it would cover alone (exact ray "
+       "casts, no sensor losses; BOP's visib_fract)"},
       {"labels",
        {{"file", "instances.pgm"},
         {"meaning", "8-bit per pixel: 0 no instance (or no point), K + 1 instance K"}}},
+      {"distractors", scene.distractors},
       {"camera", camera_json(scene.camera)},
       {"sensor", sensor_json(s.sensor)},
       {"floor",
        {{"frame", "camera"},
         {"normal", to_json(scene.floor.normal)},
         {"point", to_json(scene.floor.point)},
-        {"meaning", "normal·(p − point) = 0, the normal towards the camera"}}},
+        {"meaning",
+         "the bin's inside bottom: normal·(p − point) = 0, the normal towards the camera"}}},
       {"world",
        {{"meaning", "the floor is z = 0, z up, the bin's base centred on the origin"},
         {"T_world_camera", to_json(scene.camera.T_world_camera)},
         {"camera_height", s.camera_height},
         {"camera_tilt_deg", s.camera_tilt_deg},
         {"bin_size", to_json(s.bin_size)},
-        {"bin_wall", s.bin_wall},
-        {"clutter", scene.clutter}}}};
+        {"bin_wall", s.bin_wall}}}};
   write_json((outdir / "scene.json").string(), json, std::cout);
   return json;
 }

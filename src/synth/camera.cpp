@@ -33,14 +33,14 @@ struct PixelHit {
   int shape = -1;
 };
 
-PixelHit cast_pixel(const PinholeCamera& camera, const std::vector<Shape>& shapes,
+PixelHit cast_pixel(const PinholeCamera& camera, const RayCaster& cast,
                     const DepthSensorSettings& s, const Eigen::Vector3d& projector_world,
                     double min_cos, int u, int v) {
   const Eigen::Isometry3d& T = camera.T_world_camera;
   // The direction has z = 1 in the camera frame, so the ray parameter t is the depth z.
   const Eigen::Vector3d d_camera = camera.pixel_direction(u, v);
   const Ray ray{T.translation(), T.linear() * d_camera};
-  const std::optional<Hit> hit = cast_ray(shapes, ray, 0, s.max_depth);
+  const std::optional<Hit> hit = cast(ray, 0, s.max_depth);
   PixelHit out;
   if (!hit || hit->t < s.min_depth) return out;
   // Incidence: cos θ = |n·d| / |d|; sheets may face either way, so n is turned towards the camera.
@@ -53,7 +53,7 @@ PixelHit cast_pixel(const PinholeCamera& camera, const std::vector<Shape>& shape
     // margins keep the surface itself (t = 0) and the projector (t = 1) out of the test.
     const Eigen::Vector3d to_projector = projector_world - hit->point;
     if (n_facing.dot(to_projector) <= 0) return out;
-    if (cast_ray(shapes, {hit->point, to_projector}, 1e-9, 1 - 1e-9)) return out;
+    if (cast({hit->point, to_projector}, 1e-9, 1 - 1e-9)) return out;
   }
   out.point = hit->t * d_camera;
   out.shape = hit->shape;
@@ -77,6 +77,20 @@ Eigen::Isometry3d look_at(const Eigen::Vector3d& eye, const Eigen::Vector3d& tar
   return T;
 }
 
+Eigen::Isometry3d downward_camera_pose(double height, double tilt_deg,
+                                       const Eigen::Vector3d& axis) {
+  Eigen::Matrix3d down;
+  down.col(0) = Eigen::Vector3d::UnitX();
+  down.col(1) = -Eigen::Vector3d::UnitY();
+  down.col(2) = -Eigen::Vector3d::UnitZ();
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = rigid_transform(tilt_deg, axis).linear() * down;
+  const Eigen::Vector3d z = T.linear().col(2);
+  if (!(z.z() < -1e-3)) throw std::invalid_argument("the camera does not look down");
+  T.translation() = z * (height / z.z());  // on the optical axis through the origin, at `height`
+  return T;
+}
+
 std::size_t OrganizedCloud::valid_count() const {
   std::size_t n = 0;
   for (const auto& p : positions) n += p.allFinite();
@@ -93,6 +107,16 @@ PointCloud OrganizedCloud::valid_points() const {
 
 OrganizedCloud render(const PinholeCamera& camera, const std::vector<Shape>& shapes,
                       const DepthSensorSettings& s, std::uint64_t seed) {
+  return render_rays(
+      camera,
+      [&shapes](const Ray& ray, double t_min, double t_max) {
+        return cast_ray(shapes, ray, t_min, t_max);
+      },
+      s, seed);
+}
+
+OrganizedCloud render_rays(const PinholeCamera& camera, const RayCaster& cast,
+                           const DepthSensorSettings& s, std::uint64_t seed) {
   check(camera, s);
   const auto w = static_cast<std::size_t>(camera.width);
   const std::size_t pixels = w * static_cast<std::size_t>(camera.height);
@@ -101,7 +125,7 @@ OrganizedCloud render(const PinholeCamera& camera, const std::vector<Shape>& sha
 
   std::vector<PixelHit> hits(pixels);
   parallel_for(pixels, s.threads, [&](std::size_t i) {
-    hits[i] = cast_pixel(camera, shapes, s, projector_world, min_cos, static_cast<int>(i % w),
+    hits[i] = cast_pixel(camera, cast, s, projector_world, min_cos, static_cast<int>(i % w),
                          static_cast<int>(i / w));
   });
 

@@ -121,22 +121,6 @@ std::vector<Shape> bin_shapes(const Eigen::Vector3d& size, double wall) {
           corner_box({-x + wall, y - wall, wall}, {x - wall, y, h})};
 }
 
-// T_world_camera: looking straight down (image up = world +y), tilted about `axis`, the optical
-// axis through the world origin, the camera `height` above z = 0.
-Eigen::Isometry3d bin_camera_pose(double height, double tilt_deg, const Eigen::Vector3d& axis) {
-  Eigen::Matrix3d down;
-  down.col(0) = Eigen::Vector3d::UnitX();
-  down.col(1) = -Eigen::Vector3d::UnitY();
-  down.col(2) = -Eigen::Vector3d::UnitZ();
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.linear() = rigid_transform(tilt_deg, axis).linear() * down;
-  const Eigen::Vector3d z = T.linear().col(2);
-  if (!(z.z() < -1e-3))
-    throw std::invalid_argument("make_bin_scene: the camera does not look down");
-  T.translation() = z * (height / z.z());  // on the optical axis through the origin, at `height`
-  return T;
-}
-
 }  // namespace
 
 std::vector<Shape> test_object_shapes() {
@@ -192,7 +176,7 @@ BinScene make_bin_scene(const BinSceneSettings& s) {
 
   scene.camera = s.camera;
   scene.camera.T_world_camera =
-      bin_camera_pose(s.camera_height, s.camera_tilt_deg, s.camera_tilt_axis);
+      downward_camera_pose(s.camera_height, s.camera_tilt_deg, s.camera_tilt_axis);
   const Eigen::Isometry3d T_camera_world = scene.camera.T_world_camera.inverse();
   scene.cloud = render(scene.camera, scene.shapes, s.sensor, splitmix64(s.seed + 1));
   scene.instance.resize(scene.cloud.shape.size());

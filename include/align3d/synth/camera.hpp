@@ -22,6 +22,8 @@
 #include <Eigen/Geometry>
 #include <cstddef>
 #include <cstdint>
+#include <functional>
+#include <optional>
 #include <vector>
 
 #include "align3d/point_cloud.hpp"
@@ -49,6 +51,12 @@ struct PinholeCamera {
 // when up is parallel to the viewing direction.
 Eigen::Isometry3d look_at(const Eigen::Vector3d& eye, const Eigen::Vector3d& target,
                           const Eigen::Vector3d& up);
+
+// T_world_camera of a camera looking straight down on the plane z = 0 (image up = world +y), tilted
+// by `tilt_deg` about the horizontal `axis`, its optical axis through the world origin and the
+// camera `height` above z = 0. Throws std::invalid_argument when the tilt leaves it not looking
+// down.
+Eigen::Isometry3d downward_camera_pose(double height, double tilt_deg, const Eigen::Vector3d& axis);
 
 // Defaults: a Kinect-like structured-light camera working from 0.4 to 3 m.
 struct DepthSensorSettings {
@@ -86,5 +94,12 @@ struct OrganizedCloud {
 // focal length, or negative noise, dropout or ranges.
 OrganizedCloud render(const PinholeCamera& camera, const std::vector<Shape>& shapes,
                       const DepthSensorSettings& sensor, std::uint64_t seed);
+
+// The same sensor over any scene: `cast` returns the nearest hit of a world-frame ray with
+// t_min < t < t_max (Hit::shape: the label the pixel gets, >= 0; Hit::normal: unit, either side),
+// and is called from several threads at once. render(camera, shapes, …) is this with cast_ray.
+using RayCaster = std::function<std::optional<Hit>(const Ray& ray, double t_min, double t_max)>;
+OrganizedCloud render_rays(const PinholeCamera& camera, const RayCaster& cast,
+                           const DepthSensorSettings& sensor, std::uint64_t seed);
 
 }  // namespace align3d::synth
