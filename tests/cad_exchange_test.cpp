@@ -35,16 +35,7 @@
 #include <gp_Ax2.hxx>
 #include <gp_Pnt.hxx>
 
-#if defined(__SANITIZE_ADDRESS__)
-#define ALIGN3D_LEAK_CHECKED 1
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-#define ALIGN3D_LEAK_CHECKED 1
-#endif
-#endif
-#ifdef ALIGN3D_LEAK_CHECKED
-#include <sanitizer/lsan_interface.h>
-#endif
+#include "detail/leak_check.hpp"
 #endif
 
 namespace align3d {
@@ -138,9 +129,7 @@ class QuietOcct {
 
  private:
   Message_SequenceOfPrinters saved_;
-#ifdef ALIGN3D_LEAK_CHECKED
-  __lsan::ScopedDisabler writing_is_not_checked_;
-#endif
+  detail::LeakCheckPause writing_is_not_checked_;
 };
 
 // The block [0, 100] × [0, 60] × [0, 40] (mm) with a through hole of radius 15 along z, its axis at

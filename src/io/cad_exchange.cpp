@@ -50,18 +50,8 @@
 
 #include "align3d/error.hpp"
 #include "block_reader.hpp"
+#include "detail/leak_check.hpp"
 #include "isolated_call.hpp"
-
-#if defined(__SANITIZE_ADDRESS__)
-#define ALIGN3D_LEAK_CHECKED 1
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-#define ALIGN3D_LEAK_CHECKED 1
-#endif
-#endif
-#ifdef ALIGN3D_LEAK_CHECKED
-#include <sanitizer/lsan_interface.h>
-#endif
 #endif
 
 namespace align3d::io::detail {
@@ -234,9 +224,7 @@ void check_loaded_model(const std::filesystem::path& path, XSControl_Reader& rea
 // reported as leaked at exit, the same for one file read or many. Registered here, once per
 // format, with the leak check looking away in ASan builds, so that it still sees everything else.
 void register_controller(MeshFormat format) {
-#ifdef ALIGN3D_LEAK_CHECKED
-  const __lsan::ScopedDisabler registration_is_not_a_leak;
-#endif
+  [[maybe_unused]] const align3d::detail::LeakCheckPause registration_is_not_a_leak;
   if (format == MeshFormat::kStep) {
     STEPControl_Controller::Init();
   } else {
