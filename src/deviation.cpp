@@ -44,29 +44,18 @@ DeviationMap measure_deviations(const std::vector<Eigen::Vector3d>& points, cons
                                 const Eigen::Isometry3d& T, double max_distance, int threads) {
   const std::size_t n = points.size();
   // Queried in spatial order, each search warm from its neighbour's (MeshIndex::closest_points),
-  // and written back in the input's order.
-  const std::vector<std::uint32_t> order = spatial_order(points);
-  std::vector<Eigen::Vector3d> sorted(n);
-  parallel_for(n, threads, [&](std::size_t k) { sorted[k] = T * points[order[k]]; });
-  std::vector<SurfacePoint> closest;
-  cad.closest_points(sorted, Eigen::Isometry3d::Identity(), max_distance, threads, closest);
+  // each answer written straight to the input's place.
   DeviationMap map;
   map.max_distance = max_distance;
   map.deviation.resize(n);
   map.closest.resize(n);
   map.triangle.resize(n);
-  parallel_for(n, threads, [&](std::size_t k) {
-    const SurfacePoint& c = closest[k];
-    const std::uint32_t i = order[k];
-    map.triangle[i] = c.triangle;
-    if (c.found()) {
-      map.closest[i] = c.point;
-      map.deviation[i] = cad.signed_distance(sorted[k], c);
-    } else {
-      map.closest[i] = Eigen::Vector3d::Constant(kNaN);
-      map.deviation[i] = kNaN;
-    }
-  });
+  cad.closest_points(points, spatial_order(points, threads), T, max_distance, threads,
+                     [&](std::size_t i, const Eigen::Vector3d& q, const SurfacePoint& c) {
+                       map.triangle[i] = c.triangle;
+                       map.closest[i] = c.found() ? c.point : Eigen::Vector3d::Constant(kNaN);
+                       map.deviation[i] = c.found() ? cad.signed_distance(q, c) : kNaN;
+                     });
   for (double d : map.deviation) map.outliers += std::isnan(d) ? 1 : 0;
   return map;
 }

@@ -364,31 +364,36 @@ std::uint32_t spread_bits(std::uint32_t x) {
 
 }  // namespace
 
-std::vector<std::uint32_t> spatial_order(const std::vector<Eigen::Vector3d>& points) {
+std::vector<std::uint32_t> spatial_order(const std::vector<Eigen::Vector3d>& points, int threads) {
   const std::size_t n = points.size();
   if (n >= std::numeric_limits<std::uint32_t>::max())
     throw std::length_error("spatial_order: more than 2^32 - 1 points");
-  Eigen::AlignedBox3d box;
-  for (const auto& p : points) box.extend(p);
-  std::vector<std::uint32_t> key(n), order(n), sorted(n);
+  std::vector<std::uint32_t> order(n);
   if (n == 0) return order;
+  const Eigen::AlignedBox3d box = parallel_reduce(
+      n, threads, Eigen::AlignedBox3d(),
+      [&](Eigen::AlignedBox3d& b, std::size_t i) { b.extend(points[i]); },
+      [](Eigen::AlignedBox3d& a, const Eigen::AlignedBox3d& b) { a.extend(b); });
   const Eigen::Array3d scale = 1023.0 / box.sizes().array().max(1e-300);
-  for (std::size_t i = 0; i < n; ++i) {
+  // Each item holds its key above its index, so the sort moves one contiguous word.
+  std::vector<std::uint64_t> item(n), sorted(n);
+  parallel_for(n, threads, [&](std::size_t i) {
     Eigen::Array3d c = ((points[i] - box.min()).array() * scale).min(1023.0).max(0.0);
     if (!c.allFinite()) c.setZero();  // a NaN or infinite coordinate: any place will do
-    key[i] = spread_bits(static_cast<std::uint32_t>(c.x())) |
-             spread_bits(static_cast<std::uint32_t>(c.y())) << 1 |
-             spread_bits(static_cast<std::uint32_t>(c.z())) << 2;
-    order[i] = static_cast<std::uint32_t>(i);
-  }
+    const std::uint64_t key = spread_bits(static_cast<std::uint32_t>(c.x())) |
+                              spread_bits(static_cast<std::uint32_t>(c.y())) << 1 |
+                              spread_bits(static_cast<std::uint32_t>(c.z())) << 2;
+    item[i] = key << 32 | i;
+  });
   // LSD radix sort of the 30-bit keys, 10 bits per pass; each pass is stable.
-  for (int shift = 0; shift < 30; shift += 10) {
+  for (int shift = 32; shift < 62; shift += 10) {
     std::vector<std::size_t> start(1025, 0);
-    for (std::uint32_t i : order) ++start[((key[i] >> shift) & 1023u) + 1];
+    for (std::uint64_t v : item) ++start[((v >> shift) & 1023u) + 1];
     for (std::size_t b = 1; b <= 1024; ++b) start[b] += start[b - 1];
-    for (std::uint32_t i : order) sorted[start[(key[i] >> shift) & 1023u]++] = i;
-    order.swap(sorted);
+    for (std::uint64_t v : item) sorted[start[(v >> shift) & 1023u]++] = v;
+    item.swap(sorted);
   }
+  for (std::size_t i = 0; i < n; ++i) order[i] = static_cast<std::uint32_t>(item[i]);
   return order;
 }
 

@@ -11,8 +11,11 @@
 #include <cmath>
 #include <numeric>
 #include <span>
+#include <stdexcept>
+#include <string>
 
 #include "align3d/error.hpp"
+#include "detail/bvh_build.hpp"
 #include "detail/candidate_grid.hpp"
 #include "detail/parallel.hpp"
 
@@ -20,55 +23,26 @@ namespace align3d {
 namespace {
 
 constexpr std::uint32_t kLeafSize = 4;  // triangles per leaf at most (unless they cannot be split)
-constexpr int kBins = 16;               // SAH bins per axis
 constexpr std::size_t kRun = 256;       // points a batch task walks in order (warm starts)
-constexpr int kSahDepth = 64;           // deeper ranges are halved by count (build_node)
-constexpr int kStack = 128;             // > the deepest tree, kSahDepth + 32
+constexpr int kStack = detail::kMaxDepth + 1;  // query stacks: one entry per level at most
 
-// A node's box in float, rounded outwards, so it still contains its triangles: 24 bytes instead
-// of 48, and every lower bound computed from it stays a lower bound.
-struct Node {
-  float lo[3], hi[3];
-  std::uint32_t first;  // leaf: first triangle (leaf order); internal: left child (right = +1)
-  std::uint32_t count;  // leaf: its triangles; 0: internal
-};
+using Node = detail::BvhNode;
 
 // A triangle as the queries use it, in leaf order.
 struct Tri {
   Eigen::Vector3d a, ab, ac, normal;
-  Eigen::Vector3d centre;  // of a sphere holding the triangle: the centroid,
-  double radius;           // and the distance to its farthest corner
-  std::uint32_t index;     // in the cleaned mesh
+  std::uint32_t index;  // in the cleaned mesh
 };
 
-struct Box {
-  Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
-  Eigen::Vector3d hi = -lo;
-  void grow(const Eigen::Vector3d& p) {
-    lo = lo.cwiseMin(p);
-    hi = hi.cwiseMax(p);
-  }
-  void grow(const Box& b) {
-    lo = lo.cwiseMin(b.lo);
-    hi = hi.cwiseMax(b.hi);
-  }
-  double half_area() const {
-    if (!(hi.x() >= lo.x())) return 0;
-    const Eigen::Vector3d d = hi - lo;
-    return d.x() * d.y() + d.y() * d.z() + d.z() * d.x();
-  }
+// A triangle's bounding box in float, rounded outwards (the grid's candidates are culled by it).
+struct TriBox {
+  float lo[3], hi[3];
 };
 
-float round_down(double v) {
-  const float f = static_cast<float>(v);
-  return static_cast<double>(f) <= v ? f : std::nextafter(f, -std::numeric_limits<float>::max());
-}
-float round_up(double v) {
-  const float f = static_cast<float>(v);
-  return static_cast<double>(f) >= v ? f : std::nextafter(f, std::numeric_limits<float>::max());
-}
-
-double sq_box_distance(const Node& n, const Eigen::Vector3d& q) {
+// The squared distance from q to box b (a node or a triangle's box): a lower bound of any distance
+// to what b holds.
+template <class B>
+double sq_box_distance(const B& n, const Eigen::Vector3d& q) {
   double d = 0;
   for (int k = 0; k < 3; ++k) {
     const double below = static_cast<double>(n.lo[k]) - q[k];
@@ -114,22 +88,44 @@ struct MeshIndex::Impl {
   double diagonal = 0;
   std::vector<Node> nodes;
   std::vector<Tri> tris;                        // leaf order
+  std::vector<TriBox> tri_boxes;                // leaf order
   std::vector<std::uint32_t> leaf_position;     // mesh triangle → its place in `tris`
   std::vector<Eigen::Vector3d> face_normals;    // mesh order
   std::vector<Eigen::Vector3d> edge_normals;    // 3 per triangle, mesh order
   std::vector<Eigen::Vector3d> vertex_normals;  // angle-weighted
   detail::CandidateGrid grid;                   // lists positions in `tris`
 
-  void build();
-  void build_node(std::uint32_t node, std::uint32_t begin, std::uint32_t end, int depth,
-                  std::vector<std::uint32_t>& order, const std::vector<Box>& boxes,
-                  const std::vector<Eigen::Vector3d>& centres);
-  void compute_pseudo_normals();
+  void build(int threads);
+  void compute_pseudo_normals(const std::vector<std::array<std::uint32_t, 3>>& neighbour,
+                              int threads);
   void test(const Eigen::Vector3d& q, const Tri& t, SurfacePoint& best) const;
   void test_cell(const Eigen::Vector3d& q, std::span<const std::uint32_t> cell,
                  SurfacePoint& best) const;
   void search(const Eigen::Vector3d& q, SurfacePoint& best) const;
   void nearest(const Eigen::Vector3d& q, SurfacePoint& best, std::uint32_t hint) const;
+
+  // The batch queries: the k-th point visited is points[index_of(k)]; runs of kRun visited
+  // points go to a thread each, every search warm from the previous answer of its run.
+  template <class IndexOf, class Sink>
+  void batch(std::size_t n, IndexOf&& index_of, const std::vector<Eigen::Vector3d>& points,
+             const Eigen::Isometry3d& T, double bound, int threads, Sink&& sink) const {
+    const double sq_bound = std::isfinite(bound) ? bound * bound * (1 + 1e-12)
+                                                 : std::numeric_limits<double>::infinity();
+    parallel_tasks((n + kRun - 1) / kRun, threads, [&](std::size_t run) {
+      std::uint32_t previous = kNoTriangle;
+      const std::size_t end = std::min(n, (run + 1) * kRun);
+      for (std::size_t k = run * kRun; k < end; ++k) {
+        const std::size_t i = index_of(k);
+        const Eigen::Vector3d q = T * points[i];
+        SurfacePoint best;
+        best.sq_distance = sq_bound;
+        nearest(q, best, previous);
+        if (!best.found()) best.sq_distance = std::numeric_limits<double>::infinity();
+        sink(i, q, best);
+        if (best.found()) previous = best.triangle;
+      }
+    });
+  }
 };
 
 // The grid's candidates first: when they hold an answer within the grid's reach it is exact
@@ -165,19 +161,12 @@ void MeshIndex::Impl::test(const Eigen::Vector3d& q, const Tri& t, SurfacePoint&
 }
 
 // A cell's candidates lie side by side on the surface, nearly in one plane, so their planes rarely
-// rule them out; the spheres around them do: a triangle whose sphere is farther than the best
-// answer cannot hold a closer point.
+// rule them out; their boxes do: a triangle whose box lies farther than the best answer cannot
+// hold a closer point (strictly farther, so that ties are still compared).
 void MeshIndex::Impl::test_cell(const Eigen::Vector3d& q, std::span<const std::uint32_t> cell,
                                 SurfacePoint& best) const {
-  double limit = std::sqrt(best.sq_distance);
-  for (std::uint32_t i : cell) {
-    const Tri& t = tris[i];
-    const double reach = t.radius + limit;
-    if ((q - t.centre).squaredNorm() > reach * reach) continue;
-    const std::uint32_t before = best.triangle;
-    test(q, t, best);
-    if (best.triangle != before) limit = std::sqrt(best.sq_distance);
-  }
+  for (std::uint32_t i : cell)
+    if (sq_box_distance(tri_boxes[i], q) <= best.sq_distance) test(q, tris[i], best);
 }
 
 // Depth-first, nearer child first; a subtree is skipped when its box lies farther than the best
@@ -203,145 +192,57 @@ void MeshIndex::Impl::search(const Eigen::Vector3d& q, SurfacePoint& best) const
   }
 }
 
-void MeshIndex::Impl::build() {
+void MeshIndex::Impl::build(int threads) {
   const std::size_t n = mesh.triangles.size();
-  std::vector<Box> boxes(n);
-  std::vector<Eigen::Vector3d> centres(n);
-  for (std::size_t t = 0; t < n; ++t) {
-    for (std::uint32_t v : mesh.triangles[t]) boxes[t].grow(mesh.vertices[v]);
-    centres[t] = 0.5 * (boxes[t].lo + boxes[t].hi);
-  }
-  std::vector<std::uint32_t> order(n);
-  std::iota(order.begin(), order.end(), 0u);
-  nodes.reserve(2 * n / kLeafSize + 2);
-  nodes.push_back({});
-  build_node(0, 0, static_cast<std::uint32_t>(n), 0, order, boxes, centres);
+  std::vector<Eigen::AlignedBox3d> boxes(n);
+  parallel_for(n, threads, [&](std::size_t t) {
+    for (std::uint32_t v : mesh.triangles[t]) boxes[t].extend(mesh.vertices[v]);
+  });
+  detail::Bvh bvh = detail::build_bvh(boxes, kLeafSize, threads);
+  nodes = std::move(bvh.nodes);
+  const std::vector<std::uint32_t>& order = bvh.order;
   tris.resize(n);
+  tri_boxes.resize(n);
   leaf_position.resize(n);
-  for (std::uint32_t i = 0; i < n; ++i) {
+  parallel_for(n, threads, [&](std::size_t i) {
     const auto& f = mesh.triangles[order[i]];
     const Eigen::Vector3d& a = mesh.vertices[f[0]];
-    const Eigen::Vector3d& b = mesh.vertices[f[1]];
-    const Eigen::Vector3d& c = mesh.vertices[f[2]];
-    const Eigen::Vector3d centre = (a + b + c) / 3;
-    const double radius =
-        std::sqrt(std::max(
-            {(a - centre).squaredNorm(), (b - centre).squaredNorm(), (c - centre).squaredNorm()})) *
-        (1 + 1e-12);
-    tris[i] = {a, b - a, c - a, face_normals[order[i]], centre, radius, order[i]};
-    leaf_position[order[i]] = i;
-  }
-}
-
-// Binned surface-area heuristic (Wald 2007) over the centres, on all three axes; a range whose
-// centres coincide, or any range below kSahDepth, is cut in the middle of the list, so the tree is
-// at most kSahDepth + 32 deep and the queries' fixed stacks (kStack) cannot overflow.
-void MeshIndex::Impl::build_node(std::uint32_t node, std::uint32_t begin, std::uint32_t end,
-                                 int depth, std::vector<std::uint32_t>& order,
-                                 const std::vector<Box>& boxes,
-                                 const std::vector<Eigen::Vector3d>& centres) {
-  Box box, centre_box;
-  for (std::uint32_t i = begin; i < end; ++i) {
-    box.grow(boxes[order[i]]);
-    centre_box.grow(centres[order[i]]);
-  }
-  for (int k = 0; k < 3; ++k) {
-    nodes[node].lo[k] = round_down(box.lo[k]);
-    nodes[node].hi[k] = round_up(box.hi[k]);
-  }
-  const std::uint32_t count = end - begin;
-  if (count <= kLeafSize) {
-    nodes[node].first = begin;
-    nodes[node].count = count;
-    return;
-  }
-  double best_cost = std::numeric_limits<double>::infinity();
-  int best_axis = -1, best_split = 0;
-  for (int axis = 0; axis < 3 && depth < kSahDepth; ++axis) {
-    const double lo = centre_box.lo[axis], extent = centre_box.hi[axis] - lo;
-    if (!(extent > 0)) continue;
-    std::array<Box, kBins> bin_box;
-    std::array<std::uint32_t, kBins> bin_count{};
-    auto bin_of = [&](std::uint32_t t) {
-      return std::min(kBins - 1, static_cast<int>(kBins * (centres[t][axis] - lo) / extent));
-    };
-    for (std::uint32_t i = begin; i < end; ++i) {
-      const int b = bin_of(order[i]);
-      bin_box[b].grow(boxes[order[i]]);
-      ++bin_count[b];
+    tris[i] = {a, mesh.vertices[f[1]] - a, mesh.vertices[f[2]] - a, face_normals[order[i]],
+               order[i]};
+    for (int k = 0; k < 3; ++k) {
+      tri_boxes[i].lo[k] = detail::round_down(boxes[order[i]].min()[k]);
+      tri_boxes[i].hi[k] = detail::round_up(boxes[order[i]].max()[k]);
     }
-    std::array<double, kBins> right_cost{};
-    Box right;
-    std::uint32_t right_n = 0;
-    for (int b = kBins - 1; b > 0; --b) {
-      right.grow(bin_box[b]);
-      right_n += bin_count[b];
-      right_cost[b] = right.half_area() * right_n;
-    }
-    Box left;
-    std::uint32_t left_n = 0;
-    for (int b = 0; b < kBins - 1; ++b) {
-      left.grow(bin_box[b]);
-      left_n += bin_count[b];
-      const double cost = left.half_area() * left_n + right_cost[b + 1];
-      if (left_n > 0 && left_n < count && cost < best_cost) {
-        best_cost = cost;
-        best_axis = axis;
-        best_split = b;
-      }
-    }
-  }
-  std::uint32_t mid;
-  if (best_axis < 0) {  // by count, along the centres' longest axis
-    mid = begin + count / 2;
-    Eigen::Index axis = 0;
-    (centre_box.hi - centre_box.lo).maxCoeff(&axis);
-    std::nth_element(order.begin() + begin, order.begin() + mid, order.begin() + end,
-                     [&](std::uint32_t a, std::uint32_t b) {
-                       return centres[a][axis] < centres[b][axis] ||
-                              (centres[a][axis] == centres[b][axis] && a < b);
-                     });
-  } else {
-    const double lo = centre_box.lo[best_axis];
-    const double extent = centre_box.hi[best_axis] - lo;
-    auto* split = std::partition(order.data() + begin, order.data() + end, [&](std::uint32_t t) {
-      return std::min(kBins - 1, static_cast<int>(kBins * (centres[t][best_axis] - lo) / extent)) <=
-             best_split;
-    });
-    mid = static_cast<std::uint32_t>(split - order.data());
-  }
-  const auto left = static_cast<std::uint32_t>(nodes.size());
-  nodes.push_back({});
-  nodes.push_back({});
-  nodes[node].first = left;
-  nodes[node].count = 0;
-  build_node(left, begin, mid, depth + 1, order, boxes, centres);
-  build_node(left + 1, mid, end, depth + 1, order, boxes, centres);
+    leaf_position[order[i]] = static_cast<std::uint32_t>(i);
+  });
 }
 
 // Face normals; edge pseudo-normals, the sum of the two faces' normals (a boundary or
 // non-manifold edge takes its own face's); vertex pseudo-normals, Σ αᵢ nᵢ over the incident faces
 // with αᵢ the face's angle at the vertex (Bærentzen and Aanæs 2005, eq. 2).
-void MeshIndex::Impl::compute_pseudo_normals() {
+void MeshIndex::Impl::compute_pseudo_normals(
+    const std::vector<std::array<std::uint32_t, 3>>& neighbour, int threads) {
   const std::size_t n = mesh.triangles.size();
   face_normals.resize(n);
-  vertex_normals.assign(mesh.vertices.size(), Eigen::Vector3d::Zero());
-  for (std::size_t t = 0; t < n; ++t) {
+  std::vector<std::array<double, 3>> angles(n);  // each triangle's angle at each corner
+  parallel_for(n, threads, [&](std::size_t t) {
     const auto& f = mesh.triangles[t];
-    std::array<Eigen::Vector3d, 3> p = {mesh.vertices[f[0]], mesh.vertices[f[1]],
-                                        mesh.vertices[f[2]]};
+    const std::array<Eigen::Vector3d, 3> p = {mesh.vertices[f[0]], mesh.vertices[f[1]],
+                                              mesh.vertices[f[2]]};
     face_normals[t] = (p[1] - p[0]).cross(p[2] - p[0]).normalized();
     for (int k = 0; k < 3; ++k) {
       const Eigen::Vector3d u = p[(k + 1) % 3] - p[k], v = p[(k + 2) % 3] - p[k];
-      const double angle = std::atan2(u.cross(v).norm(), u.dot(v));
-      vertex_normals[f[k]] += angle * face_normals[t];
+      angles[t][k] = std::atan2(u.cross(v).norm(), u.dot(v));
     }
-  }
+  });
+  vertex_normals.assign(mesh.vertices.size(), Eigen::Vector3d::Zero());
+  for (std::size_t t = 0; t < n; ++t)  // in triangle order: the same sums at any thread count
+    for (int k = 0; k < 3; ++k)
+      vertex_normals[mesh.triangles[t][k]] += angles[t][k] * face_normals[t];
   for (Eigen::Vector3d& v : vertex_normals)
     if (v.squaredNorm() > 0) v.normalize();
-  const std::vector<std::array<std::uint32_t, 3>> neighbour = edge_neighbours(mesh);
   edge_normals.resize(3 * n);
-  for (std::size_t t = 0; t < n; ++t)
+  parallel_for(n, threads, [&](std::size_t t) {
     for (int k = 0; k < 3; ++k) {
       const std::uint32_t o = neighbour[t][k];
       Eigen::Vector3d e = face_normals[t];
@@ -349,6 +250,7 @@ void MeshIndex::Impl::compute_pseudo_normals() {
       // Two faces folded flat onto each other have no edge normal; the face's own stands in.
       edge_normals[3 * t + k] = e.squaredNorm() > 1e-24 ? e.normalized() : face_normals[t];
     }
+  });
 }
 
 const char* to_string(MeshFeature f) {
@@ -374,10 +276,11 @@ MeshIndex::MeshIndex(const TriangleMesh& mesh, int threads, const std::string& w
   if (impl_->mesh.triangles.empty())
     throw DataError(what, "no triangle of non-zero area (all " +
                               std::to_string(mesh.triangles.size()) + " are degenerate)");
-  impl_->topology = analyse_topology(impl_->mesh);
+  const MeshAdjacency adjacency = analyse_adjacency(impl_->mesh);
+  impl_->topology = adjacency.topology;
   impl_->diagonal = bounding_box_diagonal(impl_->mesh);
-  impl_->compute_pseudo_normals();
-  impl_->build();
+  impl_->compute_pseudo_normals(adjacency.neighbours, threads);
+  impl_->build(threads);
   std::vector<Eigen::Vector3d> a, b, c;
   for (const Tri& t : impl_->tris) {
     a.push_back(t.a);
@@ -406,24 +309,22 @@ bool MeshIndex::closest(const Eigen::Vector3d& q, SurfacePoint& out, double sq_l
 void MeshIndex::closest_points(const std::vector<Eigen::Vector3d>& points,
                                const Eigen::Isometry3d& T, double bound, int threads,
                                std::vector<SurfacePoint>& out) const {
-  const std::size_t n = points.size();
-  out.resize(n);
-  const double sq_bound =
-      std::isfinite(bound) ? bound * bound * (1 + 1e-12) : std::numeric_limits<double>::infinity();
-  const Impl& m = *impl_;
-  parallel_tasks((n + kRun - 1) / kRun, threads, [&](std::size_t run) {
-    std::uint32_t previous = kNoTriangle;
-    const std::size_t end = std::min(n, (run + 1) * kRun);
-    for (std::size_t i = run * kRun; i < end; ++i) {
-      const Eigen::Vector3d q = T * points[i];
-      SurfacePoint best;
-      best.sq_distance = sq_bound;
-      m.nearest(q, best, previous);
-      if (!best.found()) best.sq_distance = std::numeric_limits<double>::infinity();
-      out[i] = best;
-      if (best.found()) previous = best.triangle;
-    }
-  });
+  out.resize(points.size());
+  impl_->batch(
+      points.size(), [](std::size_t k) { return k; }, points, T, bound, threads,
+      [&](std::size_t i, const Eigen::Vector3d&, const SurfacePoint& p) { out[i] = p; });
+}
+
+void MeshIndex::closest_points(const std::vector<Eigen::Vector3d>& points,
+                               const std::vector<std::uint32_t>& order, const Eigen::Isometry3d& T,
+                               double bound, int threads, const SurfaceSink& sink) const {
+  if (order.size() != points.size())
+    throw std::invalid_argument("MeshIndex::closest_points: the order has " +
+                                std::to_string(order.size()) + " indices for " +
+                                std::to_string(points.size()) + " points");
+  impl_->batch(
+      points.size(), [&](std::size_t k) { return std::size_t{order[k]}; }, points, T, bound,
+      threads, sink);
 }
 
 const Eigen::Vector3d& MeshIndex::face_normal(std::uint32_t t) const {
@@ -515,6 +416,7 @@ std::size_t MeshIndex::memory_bytes() const {
   return sizeof(Impl) + m.mesh.vertices.capacity() * sizeof(Eigen::Vector3d) +
          m.mesh.triangles.capacity() * sizeof(m.mesh.triangles[0]) +
          m.nodes.capacity() * sizeof(Node) + m.tris.capacity() * sizeof(Tri) +
+         m.tri_boxes.capacity() * sizeof(TriBox) +
          m.leaf_position.capacity() * sizeof(std::uint32_t) +
          (m.face_normals.capacity() + m.edge_normals.capacity() + m.vertex_normals.capacity()) *
              sizeof(Eigen::Vector3d) +

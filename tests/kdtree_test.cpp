@@ -372,6 +372,7 @@ TEST(SpatialOrder, IsTheStableSortByInterleavedGridCoordinates) {
     return key(points[a]) < key(points[b]);
   });
   EXPECT_EQ(spatial_order(points), expected);
+  EXPECT_EQ(spatial_order(points, 2), expected);  // keys computed on two threads
 }
 
 TEST(SpatialOrder, HandlesEmptyFlatAndSinglePointInputs) {

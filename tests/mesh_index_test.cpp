@@ -9,6 +9,8 @@
 #include <cmath>
 
 #include "align3d/error.hpp"
+#include "align3d/kdtree.hpp"
+#include "align3d/synth/bin_picking.hpp"
 #include "detail/random.hpp"
 #include "mesh_test_util.hpp"
 
@@ -103,6 +105,70 @@ TEST(MeshIndex, LimitAndBatchAnswerAsSingleQueriesWhateverTheThreads) {
   }
   EXPECT_GT(found, 500u);
   EXPECT_LT(found, q.size());
+}
+
+// Scan points lie within a fraction of a triangle of the surface, where the candidate grid
+// answers: points on and around a tilted, finely tessellated sphere and cylinder (no face along
+// an axis, so every separating axis of the grid's listing matters), each against the brute force;
+// the ordered batch with a sink answers as the stored batch does.
+TEST(MeshIndex, NearSurfaceQueriesMatchBruteForceOnTiltedFineMeshes) {
+  Eigen::Isometry3d tilt = Eigen::Isometry3d::Identity();
+  tilt.rotate(Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 0.5).normalized()));
+  tilt.pretranslate(Eigen::Vector3d(3.3, -1.2, 0.4));
+  for (const TriangleMesh& shape : {synth::sphere_mesh(4, 40), synth::cylinder_mesh(2, 5, 64)}) {
+    const TriangleMesh mesh = transformed(shape, tilt);
+    const MeshIndex index(mesh, 2);
+    const double edge = std::sqrt(surface_area(mesh) / static_cast<double>(mesh.triangles.size()));
+    Random rng(11);
+    const PointCloud samples = sample_surface(mesh, 1500, 3);
+    std::vector<Eigen::Vector3d> q;
+    for (std::size_t i = 0; i < samples.size(); ++i)
+      q.push_back(samples.positions[i] + rng.uniform(-0.6, 0.6) * edge * samples.normals[i] +
+                  0.05 * edge * Eigen::Vector3d(rng.normal(), rng.normal(), rng.normal()));
+    std::vector<SurfacePoint> stored;
+    index.closest_points(q, Eigen::Isometry3d::Identity(), INFINITY, 2, stored);
+    std::vector<SurfacePoint> sunk(q.size());
+    std::vector<Eigen::Vector3d> seen(q.size());
+    index.closest_points(q, spatial_order(q), Eigen::Isometry3d::Identity(), INFINITY, 2,
+                         [&](std::size_t i, const Eigen::Vector3d& at, const SurfacePoint& p) {
+                           sunk[i] = p;
+                           seen[i] = at;
+                         });
+    for (std::size_t i = 0; i < q.size(); ++i) {
+      const double truth = brute_sq_distance(index.mesh(), q[i]);
+      ASSERT_NEAR(stored[i].sq_distance, truth, 1e-12 * (1 + truth)) << i;
+      EXPECT_EQ(sunk[i].sq_distance, stored[i].sq_distance) << i;
+      EXPECT_EQ(sunk[i].triangle, stored[i].triangle) << i;
+      EXPECT_EQ(seen[i], q[i]);
+    }
+  }
+  const MeshIndex index(synth::sphere_mesh(1, 8));
+  EXPECT_THROW(
+      index.closest_points({Eigen::Vector3d::Zero()}, {}, Eigen::Isometry3d::Identity(), 1, 1,
+                           [](std::size_t, const Eigen::Vector3d&, const SurfacePoint&) {}),
+      std::invalid_argument);
+}
+
+// The hierarchy's subtrees are built in parallel: an index built on one thread and one built on
+// two answer every query with the same bits.
+TEST(MeshIndex, BuiltOnAnyNumberOfThreadsItAnswersTheSame) {
+  const TriangleMesh mesh = synth::sphere_mesh(4, 30);
+  const MeshIndex one(mesh, 1), two(mesh, 2);
+  EXPECT_EQ(one.memory_bytes(), two.memory_bytes());
+  Random rng(12);
+  for (int i = 0; i < 2000; ++i) {
+    const Eigen::Vector3d q(rng.uniform(-6, 6), rng.uniform(-6, 6), rng.uniform(-6, 6));
+    SurfacePoint a, b;
+    ASSERT_TRUE(one.closest(q, a));
+    ASSERT_TRUE(two.closest(q, b));
+    EXPECT_EQ(a.triangle, b.triangle);
+    EXPECT_EQ(a.point, b.point);
+    RayHit ra, rb;
+    const Eigen::Vector3d d(rng.normal(), rng.normal(), rng.normal());
+    ASSERT_EQ(one.intersect(q, d, ra), two.intersect(q, d, rb));
+    EXPECT_EQ(ra.triangle, rb.triangle);
+    EXPECT_EQ(ra.t, rb.t);
+  }
 }
 
 // The side of every point near the L block: the inside test of its closed form. Points are taken

@@ -5,8 +5,13 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
+#include <map>
+#include <numeric>
 
 #include "align3d/error.hpp"
+#include "align3d/synth/bin_picking.hpp"
+#include "detail/random.hpp"
 #include "mesh_test_util.hpp"
 
 namespace align3d {
@@ -107,6 +112,74 @@ TEST(Mesh, EdgeNeighboursAreMutual) {
       EXPECT_NE(std::find(ot.begin(), ot.end(), m.triangles[t][k]), ot.end());
       EXPECT_NE(std::find(ot.begin(), ot.end(), m.triangles[t][(k + 1) % 3]), ot.end());
     }
+}
+
+// analyse_adjacency walks each vertex's triangles; the oracle here is a std::map from every
+// undirected edge to the (triangle, slot) pairs using it, on a sphere made irregular on purpose:
+// holes (boundary edges), flipped triangles (inconsistent edges), fins (non-manifold edges), a
+// detached piece and a triangle with a repeated corner.
+TEST(Mesh, AdjacencyAgreesWithAnEdgeMapOnAnIrregularMesh) {
+  TriangleMesh m = synth::sphere_mesh(3, 12);
+  Random rng(5);
+  std::vector<std::array<std::uint32_t, 3>> kept;
+  for (auto t : m.triangles) {
+    if (rng.uniform() < 0.05) continue;              // a hole
+    if (rng.uniform() < 0.1) std::swap(t[1], t[2]);  // a flipped triangle
+    kept.push_back(t);
+  }
+  for (int f = 0; f < 5; ++f) {  // fins on existing edges
+    const auto& t = kept[static_cast<std::size_t>(rng.uniform(0, 1) * kept.size())];
+    m.vertices.push_back(m.vertices[t[0]] + Eigen::Vector3d(0, 0, 1));
+    kept.push_back({t[0], t[1], static_cast<std::uint32_t>(m.vertices.size() - 1)});
+  }
+  const auto base = static_cast<std::uint32_t>(m.vertices.size());
+  for (int k = 0; k < 4; ++k) m.vertices.emplace_back(10 + k % 2, 10 + k / 2, 0);
+  kept.push_back({base, base + 1, base + 2});  // a detached piece of two triangles
+  kept.push_back({base + 1, base + 3, base + 2});
+  kept.push_back({0, 0, 1});  // a repeated corner
+  m.triangles = kept;
+
+  std::map<std::pair<std::uint32_t, std::uint32_t>, std::vector<std::pair<std::uint32_t, int>>>
+      edges;
+  for (std::uint32_t t = 0; t < m.triangles.size(); ++t)
+    for (int k = 0; k < 3; ++k) {
+      const std::uint32_t a = m.triangles[t][k], b = m.triangles[t][(k + 1) % 3];
+      if (a != b) edges[{std::min(a, b), std::max(a, b)}].push_back({t, k});
+    }
+  MeshTopology truth;
+  std::vector<std::array<std::uint32_t, 3>> neighbours(m.triangles.size(),
+                                                       {UINT32_MAX, UINT32_MAX, UINT32_MAX});
+  std::vector<std::uint32_t> piece(m.triangles.size());
+  std::iota(piece.begin(), piece.end(), 0u);
+  std::function<std::uint32_t(std::uint32_t)> root = [&](std::uint32_t x) {
+    return piece[x] == x ? x : root(piece[x]);
+  };
+  for (const auto& [edge, uses] : edges) {
+    if (uses.size() == 1) ++truth.boundary_edges;
+    if (uses.size() > 2) ++truth.non_manifold_edges;
+    if (uses.size() != 2) continue;
+    const auto [t, k] = uses[0];
+    const auto [o, j] = uses[1];
+    neighbours[t][k] = o;
+    neighbours[o][j] = t;
+    // Same direction along the edge: the windings disagree.
+    if (m.triangles[t][k] == m.triangles[o][j]) ++truth.inconsistent_edges;
+    piece[root(t)] = root(o);
+  }
+  for (std::uint32_t t = 0; t < m.triangles.size(); ++t) truth.components += root(t) == t ? 1 : 0;
+  truth.boundary_edges += 1;  // the repeated corner's degenerate edge counts as open
+
+  const MeshAdjacency got = analyse_adjacency(m);
+  EXPECT_GT(truth.boundary_edges, 10u);
+  EXPECT_GT(truth.inconsistent_edges, 10u);
+  EXPECT_GE(truth.non_manifold_edges, 5u);
+  EXPECT_EQ(got.topology.boundary_edges, truth.boundary_edges);
+  EXPECT_EQ(got.topology.non_manifold_edges, truth.non_manifold_edges);
+  EXPECT_EQ(got.topology.inconsistent_edges, truth.inconsistent_edges);
+  EXPECT_EQ(got.topology.components, truth.components);
+  EXPECT_EQ(got.neighbours, neighbours);
+  EXPECT_EQ(edge_neighbours(m), neighbours);
+  EXPECT_EQ(analyse_topology(m).components, truth.components);
 }
 
 TEST(Mesh, CheckNamesTheProblem) {

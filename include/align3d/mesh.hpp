@@ -62,6 +62,13 @@ MeshTopology analyse_topology(const TriangleMesh& mesh);
 // three or more triangles).
 std::vector<std::array<std::uint32_t, 3>> edge_neighbours(const TriangleMesh& mesh);
 
+// Both of the above from one pass over the edges (what MeshIndex needs).
+struct MeshAdjacency {
+  MeshTopology topology;
+  std::vector<std::array<std::uint32_t, 3>> neighbours;  // as edge_neighbours
+};
+MeshAdjacency analyse_adjacency(const TriangleMesh& mesh);
+
 // What clean_mesh changed.
 struct MeshRepair {
   std::size_t welded_vertices = 0;      // vertices merged into an identical one

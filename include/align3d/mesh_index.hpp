@@ -20,6 +20,7 @@
 
 #include <Eigen/Geometry>
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <vector>
@@ -83,6 +84,15 @@ class MeshIndex {
   // threads (0: all cores); the result does not depend on it.
   void closest_points(const std::vector<Eigen::Vector3d>& points, const Eigen::Isometry3d& T,
                       double bound, int threads, std::vector<SurfacePoint>& out) const;
+  // The same searches visited in `order` (a permutation of the points' indices, such as
+  // spatial_order(points), kdtree.hpp), each answer handed to sink(i, T·points[i], closest) instead
+  // of stored (closest not found() when none): a caller writing its own per-point results needs
+  // no array of SurfacePoints. The sink is called once per point, from up to `threads` threads at
+  // once.
+  using SurfaceSink = std::function<void(std::size_t, const Eigen::Vector3d&, const SurfacePoint&)>;
+  void closest_points(const std::vector<Eigen::Vector3d>& points,
+                      const std::vector<std::uint32_t>& order, const Eigen::Isometry3d& T,
+                      double bound, int threads, const SurfaceSink& sink) const;
 
   // Unit normal of triangle t ((b − a) × (c − a) normalised).
   const Eigen::Vector3d& face_normal(std::uint32_t t) const;

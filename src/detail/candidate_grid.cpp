@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <utility>
 
 #include "detail/parallel.hpp"
 
@@ -13,6 +15,7 @@ constexpr double kReachFraction = 0.25;        // reach = this × cell side
 // Triangles are listed for a slightly larger cube than the reach queries trust, so a triangle
 // that rounding would place just outside is never missing from a cell.
 constexpr double kListingMargin = 1e-9;
+constexpr double kRowSlack = 1e-6;
 
 // The separating-axis test of a triangle against axis-aligned cubes of half-size h (Akenine-Möller
 // 2001), prepared once per triangle: its normal and the nine products of a cube axis with an edge,
@@ -28,12 +31,30 @@ class SeparatingAxes {
     for (const Eigen::Vector3d& e : edges)
       for (int k = 0; k < 3; ++k) add(a, b, c, h, Eigen::Vector3d::Unit(k).cross(e));
   }
-  bool meets_cube(const Eigen::Vector3d& centre) const {
-    for (int i = 0; i < count_; ++i) {
-      const double p = axes_[i].dot(centre);
-      if (lo_[i] - p > r_[i] || hi_[i] - p < -r_[i]) return false;
+  // The cubes centred at row0 + x·(step, 0, 0) meet the triangle for x in [from, to] (continuous;
+  // empty when from > to): on each axis d the test lo − r ≤ d·centre ≤ hi + r is linear in x, so
+  // a row of cells costs ten interval intersections instead of ten dot products a cell. `step`
+  // must be the one given to prepare_rows.
+  void row(const Eigen::Vector3d& row0, double& from, double& to) const {
+    for (int i = 0; i < count_ && from <= to; ++i) {
+      const double p0 = axes_[i].dot(row0);
+      const double low = lo_[i] - r_[i] - p0, high = hi_[i] + r_[i] - p0;
+      if (inv_dp_[i] > 0) {
+        from = std::max(from, low * inv_dp_[i]);
+        to = std::min(to, high * inv_dp_[i]);
+      } else if (inv_dp_[i] < 0) {
+        from = std::max(from, high * inv_dp_[i]);
+        to = std::min(to, low * inv_dp_[i]);
+      } else if (low > 0 || high < 0) {
+        to = -std::numeric_limits<double>::infinity();
+      }
     }
-    return true;
+  }
+  void prepare_rows(double step) {
+    for (int i = 0; i < count_; ++i) {
+      const double dp = axes_[i].x() * step;
+      inv_dp_[i] = dp != 0 ? 1 / dp : 0;
+    }
   }
 
  private:
@@ -48,7 +69,7 @@ class SeparatingAxes {
     ++count_;
   }
   Eigen::Vector3d axes_[10];
-  double lo_[10], hi_[10], r_[10];
+  double lo_[10], hi_[10], r_[10], inv_dp_[10];
   int count_ = 0;
 };
 
@@ -83,27 +104,38 @@ CandidateGrid::CandidateGrid(const std::vector<Eigen::Vector3d>& a,
   // Each triangle visits the cells its box, grown by the reach, overlaps, and is listed where it
   // meets the grown cell: in parallel over fixed chunks of triangles, whose (cell, triangle) pairs
   // are then counted and placed in chunk order (CSR), so the lists do not depend on the threads.
-  const std::size_t cells = static_cast<std::size_t>(dims_[0] * dims_[1] * dims_[2]);
+  for (int k = 0; k < 3; ++k) blocks_[k] = (dims_[k] + kBlock - 1) / kBlock;
   constexpr std::size_t kChunk = 1024;
-  std::vector<std::vector<std::pair<std::uint32_t, std::uint32_t>>> pairs((n + kChunk - 1) /
-                                                                          kChunk);
+  std::vector<std::vector<std::uint32_t>> pairs((n + kChunk - 1) / kChunk);  // key, triangle, ...
   parallel_tasks(pairs.size(), threads, [&](std::size_t chunk) {
+    pairs[chunk].reserve(32 * kChunk);
     for (std::size_t i = chunk * kChunk; i < std::min(n, (chunk + 1) * kChunk); ++i)
-      list_triangle(a[i], b[i], c[i], half, [&](std::size_t cell) {
-        pairs[chunk].emplace_back(static_cast<std::uint32_t>(cell), static_cast<std::uint32_t>(i));
+      list_triangle(a[i], b[i], c[i], half, [&](std::uint32_t key) {
+        pairs[chunk].push_back(key);
+        pairs[chunk].push_back(static_cast<std::uint32_t>(i));
       });
   });
   std::size_t total = 0;
-  for (const auto& p : pairs) total += p.size();
+  for (const auto& p : pairs) total += p.size() / 2;
   if (total > kMaxEntries) return;  // no grid: the hierarchy answers everything
-  std::vector<std::uint32_t> offsets(cells + 1, 0);
+  // Only blocks holding a candidate get cells: their offsets, block after block.
+  block_first_.assign(static_cast<std::size_t>(blocks_[0] * blocks_[1] * blocks_[2]), kNoBlock);
   for (const auto& p : pairs)
-    for (const auto& [cell, i] : p) ++offsets[cell + 1];
-  for (std::size_t k = 0; k < cells; ++k) offsets[k + 1] += offsets[k];
+    for (std::size_t j = 0; j < p.size(); j += 2) block_first_[p[j] / kBlockCells] = 0;
+  std::uint32_t used = 0;
+  for (std::uint32_t& first : block_first_)
+    if (first != kNoBlock) first = std::exchange(used, used + kBlockCells);
+  auto cell_of = [&](std::uint32_t key) {
+    return block_first_[key / kBlockCells] + key % kBlockCells;
+  };
+  std::vector<std::uint32_t> offsets(std::size_t{used} + 1, 0);
+  for (const auto& p : pairs)
+    for (std::size_t j = 0; j < p.size(); j += 2) ++offsets[cell_of(p[j]) + 1];
+  for (std::size_t k = 0; k < used; ++k) offsets[k + 1] += offsets[k];
   entries_.resize(total);
   std::vector<std::uint32_t> next(offsets.begin(), offsets.end() - 1);
   for (const auto& p : pairs)
-    for (const auto& [cell, i] : p) entries_[next[cell]++] = i;
+    for (std::size_t j = 0; j < p.size(); j += 2) entries_[next[cell_of(p[j])]++] = p[j + 1];
   offsets_ = std::move(offsets);
 }
 
@@ -119,13 +151,20 @@ void CandidateGrid::list_triangle(const Eigen::Vector3d& a, const Eigen::Vector3
         dims_[k] - 1,
         static_cast<std::int64_t>(std::floor((thi[k] + reach_ - origin_[k]) * inv_cell_)));
   }
-  const SeparatingAxes sat(a, b, c, half);
+  SeparatingAxes sat(a, b, c, half);
+  sat.prepare_rows(cell_);
   for (std::int64_t z = from[2]; z <= to[2]; ++z)
-    for (std::int64_t y = from[1]; y <= to[1]; ++y)
-      for (std::int64_t x = from[0]; x <= to[0]; ++x) {
-        const Eigen::Vector3d centre = origin_ + cell_ * Eigen::Vector3d(x + 0.5, y + 0.5, z + 0.5);
-        if (sat.meets_cube(centre)) f(static_cast<std::size_t>((z * dims_[1] + y) * dims_[0] + x));
-      }
+    for (std::int64_t y = from[1]; y <= to[1]; ++y) {
+      const Eigen::Vector3d row0 = origin_ + cell_ * Eigen::Vector3d(0.5, y + 0.5, z + 0.5);
+      double lo = static_cast<double>(from[0]), hi = static_cast<double>(to[0]);
+      sat.row(row0, lo, hi);
+      if (!(lo <= hi)) continue;
+      // The interval's ends widened by kRowSlack cells: rounding never drops a cell that meets
+      // the triangle (an extra one only costs a candidate).
+      const auto first = std::max(from[0], static_cast<std::int64_t>(std::ceil(lo - kRowSlack)));
+      const auto last = std::min(to[0], static_cast<std::int64_t>(std::floor(hi + kRowSlack)));
+      for (std::int64_t x = first; x <= last; ++x) f(key(x, y, z));
+    }
 }
 
 bool CandidateGrid::candidates(const Eigen::Vector3d& q,
@@ -137,7 +176,13 @@ bool CandidateGrid::candidates(const Eigen::Vector3d& q,
     if (!(x >= 0 && x < static_cast<double>(dims_[k]))) return false;
     at[k] = static_cast<std::int64_t>(x);
   }
-  const auto cell = static_cast<std::size_t>((at[2] * dims_[1] + at[1]) * dims_[0] + at[0]);
+  const std::uint32_t k = key(at[0], at[1], at[2]);
+  const std::uint32_t first = block_first_[k / kBlockCells];
+  if (first == kNoBlock) {
+    out = {};
+    return true;
+  }
+  const std::uint32_t cell = first + k % kBlockCells;
   out = {entries_.data() + offsets_[cell], entries_.data() + offsets_[cell + 1]};
   return true;
 }

@@ -28,15 +28,26 @@ class CandidateGrid {
   // The candidates of the cell holding q; false when q lies outside the grid (or there is none).
   bool candidates(const Eigen::Vector3d& q, std::span<const std::uint32_t>& out) const;
   std::size_t memory_bytes() const {
-    return offsets_.capacity() * sizeof(std::uint32_t) +
-           entries_.capacity() * sizeof(std::uint32_t);
+    return (block_first_.capacity() + offsets_.capacity() + entries_.capacity()) *
+           sizeof(std::uint32_t);
   }
 
   static constexpr std::size_t kMaxCells = std::size_t{1} << 24;
   static constexpr std::size_t kMaxEntries = std::size_t{1} << 27;
 
  private:
-  // Calls f(cell) for every cell whose cube of half-size `half` (about its centre) triangle abc
+  // Cells are stored by blocks of kBlock³, only the blocks a triangle reaches (a surface meets a
+  // few percent of its bounding box's cells): a cell's key is its block's number × kBlockCells +
+  // its place in the block.
+  static constexpr std::int64_t kBlock = 4;
+  static constexpr std::uint32_t kBlockCells = kBlock * kBlock * kBlock;
+  static constexpr std::uint32_t kNoBlock = 0xffffffffu;
+  std::uint32_t key(std::int64_t x, std::int64_t y, std::int64_t z) const {
+    const std::int64_t block = ((z / kBlock) * blocks_[1] + y / kBlock) * blocks_[0] + x / kBlock;
+    const std::int64_t local = ((z % kBlock) * kBlock + y % kBlock) * kBlock + x % kBlock;
+    return static_cast<std::uint32_t>(block * kBlockCells + local);
+  }
+  // Calls f(key) for every cell whose cube of half-size `half` (about its centre) triangle abc
   // meets.
   template <class F>
   void list_triangle(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c,
@@ -44,7 +55,9 @@ class CandidateGrid {
 
   Eigen::Vector3d origin_ = Eigen::Vector3d::Zero();
   double cell_ = 0, inv_cell_ = 0, reach_ = 0;
-  std::int64_t dims_[3] = {0, 0, 0};
+  std::int64_t dims_[3] = {0, 0, 0};        // cells per axis
+  std::int64_t blocks_[3] = {0, 0, 0};      // blocks per axis
+  std::vector<std::uint32_t> block_first_;  // a block's first cell in offsets_, or kNoBlock
   std::vector<std::uint32_t> offsets_;  // cell k's candidates: entries_[offsets_[k], offsets_[k+1])
   std::vector<std::uint32_t> entries_;
 };

@@ -1,0 +1,39 @@
+// The bounding-volume hierarchy MeshIndex searches (mesh_index.cpp), built by binned SAH (Wald
+// 2007, "On fast construction of SAH-based bounding volume hierarchies"). Our own builder: the
+// ranges move through one contiguous array of float boxes (no indirection), and the subtrees below
+// the top levels are built in parallel and spliced in a fixed order, so the tree is the same at
+// any thread count (bench/README.md, "The mesh hierarchy").
+#pragma once
+
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <vector>
+
+namespace align3d::detail {
+
+// A node's box in float, rounded outwards, so it still contains its primitives: 24 bytes instead
+// of 48, and every lower bound computed from it stays a lower bound.
+struct BvhNode {
+  float lo[3], hi[3];
+  std::uint32_t first;  // leaf: first primitive (in `order`); internal: left child (right = +1)
+  std::uint32_t count;  // leaf: its primitives; 0: internal
+};
+
+struct Bvh {
+  std::vector<BvhNode> nodes;        // nodes[0]: the root
+  std::vector<std::uint32_t> order;  // leaf order → the primitive's index in `boxes`
+};
+
+// At most `leaf_size` primitives a leaf, unless their centres coincide beyond kMaxSahDepth levels;
+// the tree is at most kMaxDepth deep, so fixed query stacks of kMaxDepth + 1 entries suffice.
+// `threads`: 0 for all cores; the tree does not depend on it. `boxes` must not be empty.
+Bvh build_bvh(const std::vector<Eigen::AlignedBox3d>& boxes, std::uint32_t leaf_size, int threads);
+
+// v in float, rounded down or up (a box rounded outwards still holds what it held).
+float round_down(double v);
+float round_up(double v);
+
+constexpr int kMaxSahDepth = 64;              // deeper ranges are halved by count
+constexpr int kMaxDepth = kMaxSahDepth + 32;  // halving 2^32 primitives takes 32 more levels
+
+}  // namespace align3d::detail
