@@ -193,19 +193,26 @@ def make_data(cache, cli, points, triangles, probes):
 # Runners.
 
 
-def run_align3d(exe, scan, mesh, out, threads, oracle=None):
-    cmd = [exe, scan, mesh, "--threads", str(threads), "--out", out]
-    if oracle:
-        cmd += ["--oracle-out", oracle]
+def run_json_runner(cmd, error_chars):
+    """Runs a runner that prints one JSON line last (align3d_run_deviation, the Open3D runner):
+    its dict with the process's wall time and the scan's bytes a point, or {"error": the last
+    error_chars characters of its stderr}."""
     start = time.perf_counter()
     p = subprocess.run(cmd, capture_output=True, text=True)
     wall = (time.perf_counter() - start) * 1e3
     if p.returncode != 0:
-        return {"error": p.stderr.strip()[-500:], "command": cmd}
+        return {"error": p.stderr.strip()[-error_chars:], "command": cmd}
     r = json.loads(p.stdout.strip().splitlines()[-1])
     r.update({"process_ms": wall, "command": cmd,
               "bytes_per_point": (r["peak_rss_kb"] - r["rss_before_scan_kb"]) * 1024 / r["points"]})
     return r
+
+
+def run_align3d(exe, scan, mesh, out, threads, oracle=None):
+    cmd = [exe, scan, mesh, "--threads", str(threads), "--out", out]
+    if oracle:
+        cmd += ["--oracle-out", oracle]
+    return run_json_runner(cmd, 500)
 
 
 def cc_command(args, files, out):
@@ -257,15 +264,7 @@ def cloudcompare_baseline(args, mesh):
 def run_open3d(signed, scan, mesh, out, threads):
     cmd = [sys.executable, os.path.abspath(__file__), "--open3d-runner",
            "signed" if signed else "unsigned", scan, mesh, out, "--threads", str(threads)]
-    start = time.perf_counter()
-    p = subprocess.run(cmd, capture_output=True, text=True)
-    wall = (time.perf_counter() - start) * 1e3
-    if p.returncode != 0:
-        return {"error": p.stderr.strip()[-800:], "command": cmd}
-    r = json.loads(p.stdout.strip().splitlines()[-1])
-    r.update({"process_ms": wall, "command": cmd,
-              "bytes_per_point": (r["peak_rss_kb"] - r["rss_before_scan_kb"]) * 1024 / r["points"]})
-    return r
+    return run_json_runner(cmd, 800)
 
 
 def current_rss_kb():
