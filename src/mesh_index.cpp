@@ -280,12 +280,13 @@ MeshIndex::MeshIndex(const TriangleMesh& mesh, int threads, const std::string& w
   impl_->diagonal = bounding_box_diagonal(impl_->mesh);
   impl_->compute_pseudo_normals(adjacency.neighbours, threads);
   impl_->build(threads);
-  std::vector<Eigen::Vector3d> a, b, c;
-  for (const Tri& t : impl_->tris) {
-    a.push_back(t.a);
-    b.push_back(t.a + t.ab);
-    c.push_back(t.a + t.ac);
-  }
+  const std::vector<Tri>& tris = impl_->tris;
+  std::vector<Eigen::Vector3d> a(tris.size()), b(tris.size()), c(tris.size());
+  parallel_for(tris.size(), threads, [&](std::size_t i) {
+    a[i] = tris[i].a;
+    b[i] = tris[i].a + tris[i].ab;
+    c[i] = tris[i].a + tris[i].ac;
+  });
   impl_->grid = detail::CandidateGrid(a, b, c, surface_area(impl_->mesh), threads);
 }
 
