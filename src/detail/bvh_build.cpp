@@ -11,8 +11,8 @@ namespace align3d::detail {
 namespace {
 
 constexpr int kBins = 16;  // SAH bins per axis
-constexpr int kSerialDepth =
-    3;  // levels split on the calling thread; their 2^3 subtrees in parallel
+// Levels split on the calling thread; the 2^kSerialDepth subtrees below them are built in parallel.
+constexpr int kSerialDepth = 3;
 
 constexpr float kInf = std::numeric_limits<float>::infinity();
 
@@ -104,9 +104,9 @@ class Builder {
     if (count <= leaf_size_) return end;
     double best_cost = std::numeric_limits<double>::infinity();
     int best_axis = -1, best_split = 0;
+    const Eigen::Array4f scale = bin_scale(centres);  // an axis without extent has scale 0
     if (depth < kMaxSahDepth) {
-      // One pass bins every primitive on all three axes (an axis without extent has scale 0).
-      const Eigen::Array4f scale = bin_scale(centres);
+      // One pass bins every primitive on all three axes.
       std::array<std::array<FloatBox, kBins>, 3> bin_box;
       std::array<std::array<std::uint32_t, kBins>, 3> bin_count{};
       for (std::uint32_t i = begin; i < end; ++i) {
@@ -143,7 +143,6 @@ class Builder {
       }
     }
     if (best_axis >= 0) {
-      const Eigen::Array4f scale = bin_scale(centres);
       const Ref* split = std::partition(
           refs_.data() + begin, refs_.data() + end,
           [&](const Ref& r) { return bins(r, centres, scale)[best_axis] <= best_split; });
@@ -192,16 +191,17 @@ Bvh build_bvh(const std::vector<Eigen::AlignedBox3d>& boxes, std::uint32_t leaf_
     r.lo[3] = r.hi[3] = r.centre[3] = 0;
     r.index = static_cast<std::uint32_t>(i);
   });
-  const Builder builder(refs, std::max<std::uint32_t>(leaf_size, 1));
+  const std::uint32_t leaf = std::max<std::uint32_t>(leaf_size, 1);
+  const Builder builder(refs, leaf);
   Bvh bvh;
-  bvh.nodes.reserve(2 * n / std::max<std::uint32_t>(leaf_size, 1) + 2);
+  bvh.nodes.reserve(2 * n / leaf + 2);
   bvh.nodes.push_back({});
   std::vector<Pending> pending;
   builder.build(bvh.nodes, 0, 0, static_cast<std::uint32_t>(n), 0, kSerialDepth, &pending);
   std::vector<std::vector<BvhNode>> subtrees(pending.size());
   parallel_tasks(pending.size(), threads, [&](std::size_t i) {
     const Pending& p = pending[i];
-    subtrees[i].reserve(2 * (p.end - p.begin) / std::max<std::uint32_t>(leaf_size, 1) + 2);
+    subtrees[i].reserve(2 * (p.end - p.begin) / leaf + 2);
     subtrees[i].push_back({});
     builder.build(subtrees[i], 0, p.begin, p.end, p.depth, 0, nullptr);
   });
