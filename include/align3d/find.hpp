@@ -1,0 +1,114 @@
+// Finding every instance of a part in a depth-camera scene (README, "Pick parts from a bin"): the
+// bin-picking engine behind `align3d find`.
+//
+//   1. The model: points sampled evenly by area on the part's mesh (or a cloud) with outward
+//      normals, downsampled with a voxel of `voxel_fraction` × the model's diameter, and the point
+//      pair feature table built from them (coarse/ppf.hpp, PpfModel; prepared once, reusable from
+//      `align3d ppf-model`). Its symmetry is detected from those points (symmetry.hpp) or given.
+//   2. The scene, in the camera's frame (its viewpoint): points outside the depth range are
+//      dropped and the dominant plane (the bin floor) removed for voting, not for verification.
+//      The rest is downsampled with the model's voxel; normals are turned toward the camera, the
+//      side from which the outward normals of the visible model surface point too.
+//   3. Hypotheses: PPF voting (coarse/ppf.hpp, ppf_hypotheses) with neighbour-bin lookups, one
+//      vote per model-scene pair and several peaks per scene reference point, clustered poses,
+//      each refined by ICP against the scene points near it (icp/icp.hpp).
+//   4. Verification against the depth image (range_image.hpp): the model points the camera would
+//      see at the pose (facing it, not hidden behind the part itself) are compared with the scene
+//      along their pixel's ray. Explained: the scene surface within a distance of the model's;
+//      seen through: the scene lies farther, so the hypothesised part would hide it (free-space
+//      violation); occluded: something lies in front. score = (explained − seen through) /
+//      (visible − missing pixels); visible_fraction = 1 − occluded / visible.
+//   5. Non-maximum suppression, best score first: each accepted instance claims the scene pixels
+//      it explains; a later hypothesis is scored again on the pixels still free and dropped below
+//      min_score. So one part is reported once, whatever its symmetry. Poses of a symmetric part
+//      are reported in a canonical form (symmetry.hpp).
+//
+// Units: every distance default is a share of the model's diameter, so the same data in mm or m
+// give the same instances. The same inputs and settings give the same result at any thread count.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <cstddef>
+#include <cstdint>
+#include <limits>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "align3d/coarse/ppf.hpp"
+#include "align3d/mesh.hpp"
+#include "align3d/point_cloud.hpp"
+#include "align3d/range_image.hpp"
+#include "align3d/symmetry.hpp"
+#include "align3d/warning.hpp"
+
+namespace align3d {
+
+// Defaults, declared once (CLI, Python and docs read them from here).
+inline constexpr double kFindVoxelFraction = 0.04;  // model voxel / model diameter
+inline constexpr double kFindMinScore = 0.3;
+inline constexpr std::size_t kFindModelSamples = 20000;  // area-uniform samples of a mesh model
+
+struct FindSettings {
+  int max_instances = 0;  // 0: every instance that verifies
+  double min_score = kFindMinScore;
+  // Symmetry of the part: detected from the model (auto) or declared (symmetry.hpp).
+  bool detect_symmetry = true;
+  Symmetry symmetry;  // used when detect_symmetry is false
+  bool remove_plane = true;  // the dominant plane of the scene (the bin floor) takes no votes
+  // Scene points with depth (z in the camera frame) outside [min_depth, max_depth] are dropped.
+  double min_depth = 0;
+  double max_depth = std::numeric_limits<double>::infinity();
+  std::uint64_t seed = 1;  // the floor's RANSAC
+  int threads = 0;         // 0: all cores; the result does not depend on it
+};
+
+// The scene as read: the points, and where they came from.
+struct FindScene {
+  PointCloud cloud;
+  // An organized cloud (a depth camera's image): its width and height, and each point's pixel
+  // index (v·width + u) in `pixels`; 0 × 0 and no pixels for an unorganized cloud.
+  std::size_t width = 0, height = 0;
+  std::vector<std::uint32_t> pixels;
+  // The camera's pose in the cloud's frame (a PCD's VIEWPOINT; the identity otherwise): the
+  // camera frame's z axis is the viewing direction.
+  Eigen::Isometry3d T_cloud_camera = Eigen::Isometry3d::Identity();
+};
+
+struct FoundInstance {
+  Eigen::Isometry3d T_scene_model;  // maps MODEL coordinates into the SCENE's frame
+  double score = 0;
+  double visible_fraction = 0;
+  double rms = 0;                      // of the explained points' distances along their rays
+  std::size_t explained = 0;           // scene points it explains
+  std::vector<std::uint32_t> points;   // those points (indices into FindScene::cloud), ascending
+};
+
+struct FindResult {
+  std::vector<FoundInstance> instances;  // best score first
+  Symmetry symmetry;                     // of the model, as used
+  double model_diameter = 0, voxel = 0;  // voxel: the model's (= the scene's downsampling)
+  std::size_t model_points = 0;          // in the feature table
+  // The scene: its camera (estimated from an organized cloud, or made up for an unorganized one),
+  // points dropped by the depth range, removed as the plane, and the downsampled voting cloud.
+  RangeImage image;
+  std::size_t depth_dropped = 0, plane_points = 0, voting_points = 0;
+  std::size_t hypotheses = 0;  // pose clusters refined and verified
+  double prepare_ms = 0, vote_ms = 0, refine_ms = 0, verify_ms = 0, total_ms = 0;
+  std::vector<Warning> warnings;
+};
+
+// The model description find() needs, built from a mesh (sampled evenly by area, face normals) or
+// from a cloud (its normals if it has them, else normals turned away from its centroid). Throws
+// DataError("model", …) for a model too small or degenerate to sample.
+PpfModel build_find_model(const TriangleMesh& mesh, double voxel_fraction = kFindVoxelFraction,
+                          int threads = 0);
+PpfModel build_find_model(const PointCloud& model, double voxel_fraction = kFindVoxelFraction,
+                          int threads = 0);
+
+// Every instance of the model in the scene. Throws std::invalid_argument for unusable settings,
+// DataError("scene", …) for a scene that holds no usable points, and DataError("model", …) when
+// the model is larger than everything the scene shows.
+FindResult find(const PpfModel& model, const FindScene& scene, const FindSettings& settings = {});
+
+}  // namespace align3d
