@@ -9,6 +9,7 @@
 # llvm-symbolizer is needed. The TsanSelfCheck tests check the stage both ways, the same on every
 # run: silent on race-free parallel code, a report for a race between two pool threads.
 # Exits non-zero on any TSan report (halt_on_error) or test failure.
+# tests/CMakeLists.txt builds only the files of these suites under TSan (keep the lists in step).
 # Usage: scripts/tsan.sh [extra cmake args]      Environment: BUILD_DIR (default build-tsan), JOBS
 set -euo pipefail
 cd "$(dirname "$0")/.."

@@ -30,6 +30,7 @@
 #include <Eigen/Geometry>
 #include <cstddef>
 #include <cstdint>
+#include <filesystem>
 #include <limits>
 #include <memory>
 #include <string>
@@ -45,8 +46,8 @@
 namespace align3d {
 
 // Defaults, declared once (CLI, Python and docs read them from here).
-inline constexpr double kFindVoxelFraction = 0.04;  // model voxel / model diameter
-inline constexpr double kFindMinScore = 0.3;
+inline constexpr double kFindVoxelFraction = 0.05;  // model voxel / model diameter
+inline constexpr double kFindMinScore = 0.4;
 inline constexpr std::size_t kFindModelSamples = 20000;  // area-uniform samples of a mesh model
 
 struct FindSettings {
@@ -54,7 +55,7 @@ struct FindSettings {
   double min_score = kFindMinScore;
   // Symmetry of the part: detected from the model (auto) or declared (symmetry.hpp).
   bool detect_symmetry = true;
-  Symmetry symmetry;  // used when detect_symmetry is false
+  Symmetry symmetry;         // used when detect_symmetry is false
   bool remove_plane = true;  // the dominant plane of the scene (the bin floor) takes no votes
   // Scene points with depth (z in the camera frame) outside [min_depth, max_depth] are dropped.
   double min_depth = 0;
@@ -75,13 +76,25 @@ struct FindScene {
   Eigen::Isometry3d T_cloud_camera = Eigen::Isometry3d::Identity();
 };
 
+// An organized scene from a depth camera's image: `image` holds width × height points row-major
+// (NaN or Inf where the camera returned nothing), in the frame where the camera sits at
+// T_cloud_camera. std::invalid_argument when the sizes disagree.
+FindScene organized_scene(const std::vector<Eigen::Vector3d>& image, std::size_t width,
+                          std::size_t height,
+                          const Eigen::Isometry3d& T_cloud_camera = Eigen::Isometry3d::Identity());
+
+// The scene of a point cloud file (io/point_cloud_io.hpp): a PCD with HEIGHT > 1 is organized, its
+// VIEWPOINT the camera; any other cloud is unorganized, seen from the origin. Throws what
+// read_point_cloud throws (IoError naming the file).
+FindScene read_find_scene(const std::filesystem::path& path);
+
 struct FoundInstance {
   Eigen::Isometry3d T_scene_model;  // maps MODEL coordinates into the SCENE's frame
   double score = 0;
   double visible_fraction = 0;
-  double rms = 0;                      // of the explained points' distances along their rays
-  std::size_t explained = 0;           // scene points it explains
-  std::vector<std::uint32_t> points;   // those points (indices into FindScene::cloud), ascending
+  double rms = 0;                     // of the explained points' distances along their rays
+  std::size_t explained = 0;          // scene points it explains
+  std::vector<std::uint32_t> points;  // those points (indices into FindScene::cloud), ascending
 };
 
 struct FindResult {

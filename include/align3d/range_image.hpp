@@ -25,10 +25,10 @@ struct RangeImage {
   double fx = 0, fy = 0, cx = 0, cy = 0;
   // The image's camera frame → the cloud's frame of the points indexed by `point` (cloud ≈ T·p).
   Eigen::Isometry3d T_cloud_camera = Eigen::Isometry3d::Identity();
-  std::vector<float> depth;           // z in the camera frame per pixel (row-major); NaN: none
-  std::vector<std::int32_t> point;    // the cloud's point at the pixel, or −1
-  bool organized = false;             // from an organized cloud (else projected)
-  double fit_rms_px = 0;              // organized: the pinhole fit's residual, pixels
+  std::vector<float> depth;         // z in the camera frame per pixel (row-major); NaN: none
+  std::vector<std::int32_t> point;  // the cloud's point at the pixel, or −1
+  bool organized = false;           // from an organized cloud (else projected)
+  double fit_rms_px = 0;            // organized: the pinhole fit's residual, pixels
 
   std::size_t pixel(int u, int v) const {
     return static_cast<std::size_t>(v) * static_cast<std::size_t>(width) +
@@ -45,13 +45,11 @@ struct RangeImage {
 // are out of range, or the points do not fit a pinhole camera (residual above 0.5 pixel: not a
 // depth image, or points not in the camera's frame).
 RangeImage organized_range_image(const PointCloud& cloud, const std::vector<std::uint32_t>& pixels,
-                                 int width, int height,
-                                 const Eigen::Isometry3d& T_cloud_camera);
+                                 int width, int height, const Eigen::Isometry3d& T_cloud_camera);
 
 // Projects an unorganized cloud seen from the camera at T_cloud_camera (its z axis is replaced by
 // the points' mean direction). Throws DataError("scene", …) when fewer than 10 points lie in
 // front of the camera or they spread over more than 150° from it (a pinhole cannot see them).
-RangeImage projected_range_image(const PointCloud& cloud,
-                                 const Eigen::Isometry3d& T_cloud_camera);
+RangeImage projected_range_image(const PointCloud& cloud, const Eigen::Isometry3d& T_cloud_camera);
 
 }  // namespace align3d

@@ -27,10 +27,10 @@ namespace align3d {
 struct Symmetry {
   enum class Kind { kNone, kDiscrete, kContinuous };
   Kind kind = Kind::kNone;
-  int order = 1;                                        // discrete: n-fold
-  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();      // model frame, unit
-  Eigen::Vector3d centre = Eigen::Vector3d::Zero();     // a point on the axis (model frame)
-  Eigen::Vector3d reference = Eigen::Vector3d::UnitX(); // unit, normal to axis
+  int order = 1;                                         // discrete: n-fold
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();       // model frame, unit
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();      // a point on the axis (model frame)
+  Eigen::Vector3d reference = Eigen::Vector3d::UnitX();  // unit, normal to axis
 
   // "none", "continuous about z (0, 0, 1)", "4-fold about (0.707, 0.707, 0)"
   std::string name() const;

@@ -26,6 +26,7 @@ from ._errors import (
     SettingsError,
     StrictError,
 )
+from ._find import FindResult, find
 from ._inspect import InspectResult, inspect
 from ._mesh import TriangleMesh, is_mesh_file, read_mesh, write_mesh
 from ._register import RectifyResult, Result, rectify, register
@@ -59,6 +60,8 @@ __all__ = [
     "demo",
     "evaluate",
     "inspect",
+    "find",
+    "FindResult",
     "is_mesh_file",
     "ppf_model",
     "read_matrix",

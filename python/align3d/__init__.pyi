@@ -1,7 +1,7 @@
 # Type stubs of the align3d package (python/tests/test_api.py checks them against the code:
 # every public name, every parameter). Docs: docs/python.md and the docstrings.
 import os
-from typing import Any, Callable, Dict, List, Optional, Tuple, Union
+from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -284,3 +284,31 @@ def demo(
 def convert(input: PathLike, output: PathLike, *, encoding: Optional[str] = ...,
             sample: Optional[int] = ..., chord_tolerance: Optional[float] = ...) -> None: ...
 def ppf_model(model: PathLike, out: PathLike, *, voxel: Optional[float] = ...) -> None: ...
+
+class FindResult:
+    def __init__(self, report: Dict[str, Any]) -> None: ...
+    def to_dict(self) -> Dict[str, Any]: ...
+    @property
+    def transformation(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def warnings(self) -> List[AlignWarning]: ...
+    @property
+    def instances(self) -> List[Dict[str, Any]]: ...
+
+def find(
+    model: Any,
+    scene: PathLike,
+    *,
+    max_instances: int = ...,
+    min_score: float = ...,
+    symmetry: str = ...,
+    voxel_fraction: float = ...,
+    keep_plane: bool = ...,
+    depth_range: Optional[Sequence[float]] = ...,
+    seed: int = ...,
+    threads: int = ...,
+    report: Optional[PathLike] = ...,
+    output: Optional[PathLike] = ...,
+    image: Optional[PathLike] = ...,
+    strict: bool = ...,
+) -> FindResult: ...

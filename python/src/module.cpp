@@ -11,5 +11,6 @@ PYBIND11_MODULE(_core, m) {
   align3d::python::bind_mesh(m);
   align3d::python::bind_register(m);
   align3d::python::bind_inspect(m);
+  align3d::python::bind_find(m);
   align3d::python::bind_commands(m);
 }

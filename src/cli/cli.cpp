@@ -20,7 +20,8 @@ int execute(const std::vector<std::string>& args, std::ostream& out, std::ostrea
   const Streams io{out, err};
   const Command commands[] = {add_register(app, io), add_synth(app, io),     add_rectify(app, io),
                               add_demo(app, io),     add_ppf_model(app, io), add_evaluate(app, io),
-                              add_convert(app, io),  add_batch(app, io),     add_inspect(app, io)};
+                              add_convert(app, io),  add_batch(app, io),     add_inspect(app, io),
+                              add_find(app, io)};
 
   try {
     std::vector<std::string> reversed(args.rbegin(), args.rend());  // CLI11 wants them reversed

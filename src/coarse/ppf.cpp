@@ -13,6 +13,7 @@
 #include <numbers>
 #include <stdexcept>
 #include <string>
+#include <unordered_map>
 
 #include "align3d/coarse/target_cache.hpp"
 #include "align3d/coarse/voxel.hpp"
@@ -55,35 +56,60 @@ void check_usable(const PointCloud& down, const std::string& what, double voxel)
   if (!(ev(1) > 1e-9 * ev(2))) throw DataError(what, "all points lie on a line" + after);
 }
 
-// Voxel centroids with PCA normals turned away from the centroid (the header's orientation rule).
+// How the PCA normals of a downsampled cloud are signed: away from its centroid (the header's
+// rule), as the cloud's own normals (outward ones, of a model from its CAD), or toward a camera.
+enum class Orient { kAwayFromCentroid, kAsGiven, kToward };
+
+// Voxel centroids with PCA normals of kNormalNeighbours points, signed by `orient`.
 PointCloud oriented_downsample(const PointCloud& cloud, double voxel, int threads,
-                               const std::string& what) {
-  PointCloud down = voxel_downsample(cloud, voxel);
+                               const std::string& what, Orient orient = Orient::kAwayFromCentroid,
+                               const Eigen::Vector3d& viewpoint = Eigen::Vector3d::Zero()) {
+  PointCloud down = voxel_downsample(cloud, voxel);  // averages the cloud's normals per voxel
+  const std::vector<Eigen::Vector3d> given = std::move(down.normals);
   down.normals.clear();
   check_usable(down, what, voxel);
   NormalSettings normal_settings;
   normal_settings.k = kNormalNeighbours;
-  normal_settings.viewpoint = centroid(down);
+  normal_settings.viewpoint = orient == Orient::kToward ? viewpoint : centroid(down);
   normal_settings.threads = threads;
-  estimate_normals(down, normal_settings);  // toward the centroid ...
-  for (auto& n : down.normals) n = -n;      // ... so away from it
+  estimate_normals(down, normal_settings);  // toward the viewpoint or the centroid ...
+  if (orient == Orient::kAwayFromCentroid) {
+    for (auto& n : down.normals) n = -n;  // ... so away from it
+  } else if (orient == Orient::kAsGiven) {
+    for (std::size_t i = 0; i < down.size(); ++i)
+      if (down.normals[i].dot(given[i]) < 0) down.normals[i] = -down.normals[i];
+  }
   return down;
 }
 
-// Quantised feature F (header). Returns false for coincident points.
-bool feature_key(const Eigen::Vector3d& p1, const Eigen::Vector3d& n1, const Eigen::Vector3d& p2,
-                 const Eigen::Vector3d& n2, double voxel, std::uint32_t bins, std::uint64_t& key) {
+// F in bin units: ‖d‖ / voxel and the three angles / (π / bins). False for coincident points.
+bool feature_values(const Eigen::Vector3d& p1, const Eigen::Vector3d& n1, const Eigen::Vector3d& p2,
+                    const Eigen::Vector3d& n2, double voxel, std::uint32_t bins,
+                    std::array<double, 4>& f) {
   Eigen::Vector3d d = p2 - p1;
   const double distance = d.norm();
   if (!(distance > 0)) return false;
   d /= distance;
   const double step = kPi / bins;
-  auto bin = [&](double cosine) {
-    const double angle = std::acos(std::clamp(cosine, -1.0, 1.0));
-    return std::min<std::uint64_t>(bins - 1, static_cast<std::uint64_t>(angle / step));
+  const auto angle = [&](double cosine) { return std::acos(std::clamp(cosine, -1.0, 1.0)) / step; };
+  f = {distance / voxel, angle(n1.dot(d)), angle(n2.dot(d)), angle(n1.dot(n2))};
+  return true;
+}
+
+std::uint64_t compose_key(std::uint64_t distance_bin, std::uint64_t a1, std::uint64_t a2,
+                          std::uint64_t a3, std::uint32_t bins) {
+  return ((distance_bin * bins + a1) * bins + a2) * bins + a3;
+}
+
+// Quantised feature F (header). Returns false for coincident points.
+bool feature_key(const Eigen::Vector3d& p1, const Eigen::Vector3d& n1, const Eigen::Vector3d& p2,
+                 const Eigen::Vector3d& n2, double voxel, std::uint32_t bins, std::uint64_t& key) {
+  std::array<double, 4> f;
+  if (!feature_values(p1, n1, p2, n2, voxel, bins, f)) return false;
+  const auto bin = [&](double v) {
+    return std::min<std::uint64_t>(bins - 1, static_cast<std::uint64_t>(v));
   };
-  const auto distance_bin = static_cast<std::uint64_t>(distance / voxel);
-  key = ((distance_bin * bins + bin(n1.dot(d))) * bins + bin(n2.dot(d))) * bins + bin(n1.dot(n2));
+  key = compose_key(static_cast<std::uint64_t>(f[0]), bin(f[1]), bin(f[2]), bin(f[3]), bins);
   return true;
 }
 
@@ -229,32 +255,52 @@ std::vector<Candidate> peak_poses(const PpfModel& model, const PointCloud& down,
 }
 
 // Pose clustering (Drost, section 3.5): greedy, strongest first; a pose joins the first cluster
-// whose strongest pose is within 12° and moves the scene centroid to within 2 voxels of it.
-// Comparing moved centroids, not raw translations, keeps the test independent of the frame.
+// whose strongest pose is within 12° and moves `centre` to within 2 voxels of it. Comparing moved
+// centres, not raw translations, keeps the test independent of the frame. Clusters are found
+// through a grid of cluster-radius cells over the moved centres (the 27 cells around a pose hold
+// every cluster it may join; of those it joins the first made, as a scan of all would).
 // Returns the clusters, most votes first.
 std::vector<Cluster> cluster_poses(const std::vector<Candidate>& candidates,
-                                   const Eigen::Vector3d& scene_centre, double voxel) {
+                                   const Eigen::Vector3d& centre, double voxel) {
   const double cos_half_rotation = std::cos(deg_to_rad(kClusterRotationDeg) / 2);
   const double cluster_radius = kClusterVoxels * voxel;
+  using Cell = std::array<long long, 3>;
+  struct CellHash {
+    std::size_t operator()(const Cell& c) const {
+      return std::hash<long long>()(c[0] * 73856093LL ^ c[1] * 19349663LL ^ c[2] * 83492791LL);
+    }
+  };
+  std::unordered_map<Cell, std::vector<std::size_t>, CellHash> grid;
+  const auto cell_of = [&](const Eigen::Vector3d& x) {
+    const Eigen::Vector3d c = (x / cluster_radius).array().floor();
+    return Cell{static_cast<long long>(c.x()), static_cast<long long>(c.y()),
+                static_cast<long long>(c.z())};
+  };
   std::vector<Cluster> clusters;
   for (const Candidate& cand : candidates) {
     const Eigen::Quaterniond q(cand.T.linear());
-    const Eigen::Vector3d x = cand.T * scene_centre;
-    Cluster* home = nullptr;
-    for (Cluster& cl : clusters)
-      if ((cl.x_first - x).norm() < cluster_radius &&
-          std::abs(cl.q_first.dot(q)) >= cos_half_rotation) {
-        home = &cl;
-        break;
-      }
-    if (!home) {
+    const Eigen::Vector3d x = cand.T * centre;
+    const Cell at = cell_of(x);
+    std::size_t home = clusters.size();
+    for (long long dx = -1; dx <= 1; ++dx)
+      for (long long dy = -1; dy <= 1; ++dy)
+        for (long long dz = -1; dz <= 1; ++dz) {
+          const auto it = grid.find({at[0] + dx, at[1] + dy, at[2] + dz});
+          if (it == grid.end()) continue;
+          for (std::size_t c : it->second)
+            if (c < home && (clusters[c].x_first - x).norm() < cluster_radius &&
+                std::abs(clusters[c].q_first.dot(q)) >= cos_half_rotation)
+              home = c;
+        }
+    if (home == clusters.size()) {
       clusters.push_back({q, x});
-      home = &clusters.back();
+      grid[at].push_back(home);
     }
-    const double sign = home->q_first.dot(q) < 0 ? -1.0 : 1.0;
-    home->q_sum += sign * cand.votes * q.coeffs();
-    home->x_sum += cand.votes * x;
-    home->votes += cand.votes;
+    Cluster& cl = clusters[home];
+    const double sign = cl.q_first.dot(q) < 0 ? -1.0 : 1.0;
+    cl.q_sum += sign * cand.votes * q.coeffs();
+    cl.x_sum += cand.votes * x;
+    cl.votes += cand.votes;
   }
   std::stable_sort(clusters.begin(), clusters.end(),
                    [](const Cluster& a, const Cluster& b) { return a.votes > b.votes; });
@@ -346,7 +392,8 @@ void take_winner(const Verified& v, const std::vector<Cluster>& clusters,
 // ---- binary format helpers (little-endian, independent of the host) ----
 
 constexpr char kMagic[8] = {'A', '3', 'D', 'P', 'P', 'F', '\r', '\n'};
-constexpr std::uint32_t kVersion = 1;
+// Version 1: normals away from the centroid; version 2, the same layout: outward normals.
+constexpr std::uint32_t kVersion = 1, kVersionOutward = 2;
 constexpr std::uint64_t kHeaderBytes = 56;
 constexpr std::uint64_t kPointBytes = 48, kKeyBytes = 8, kOffsetBytes = 4, kEntryBytes = 8;
 
@@ -420,8 +467,10 @@ TableCounts read_header(std::istream& in, std::uint64_t size, const std::filesys
     throw error("not an align3d PPF model (wrong magic)", 0);
   if (size < kHeaderBytes)
     throw error("truncated header (" + std::to_string(size) + " bytes)", size);
-  if (const std::uint32_t version = get_u32(header + 8); version != kVersion)
+  const std::uint32_t version = get_u32(header + 8);
+  if (version != kVersion && version != kVersionOutward)
     throw error("unsupported version " + std::to_string(version), 8);
+  model.outward = version == kVersionOutward;
   model.angle_bins = get_u32(header + 12);
   if (model.angle_bins < 1 || model.angle_bins > 360)
     throw error("angle bin count " + std::to_string(model.angle_bins) + " out of range", 12);
@@ -499,9 +548,11 @@ void read_entries(BodyReader& body, const TableCounts& n, PpfModel& model) {
 
 }  // namespace
 
-PpfModel build_ppf_model(const PointCloud& model, double voxel, int threads) {
+PpfModel build_ppf_model(const PointCloud& model, double voxel, int threads, bool outward) {
   if (!(voxel > 0) || !std::isfinite(voxel))
     throw std::invalid_argument("build_ppf_model: voxel size must be positive");
+  if (outward && !model.has_normals())
+    throw std::invalid_argument("build_ppf_model: outward normals need a model with normals");
   // Bound the table (N² pairs): enlarge the voxel until at most kMaxModelPoints remain.
   std::size_t count = voxel_downsample(model, voxel).size();
   while (count > kMaxModelPoints) {
@@ -510,7 +561,9 @@ PpfModel build_ppf_model(const PointCloud& model, double voxel, int threads) {
   }
   PpfModel out;
   out.voxel = voxel;
-  out.points = oriented_downsample(model, voxel, threads, "model");
+  out.outward = outward;
+  out.points = oriented_downsample(model, voxel, threads, "model",
+                                   outward ? Orient::kAsGiven : Orient::kAwayFromCentroid);
   out.diameter = bounding_box_diagonal(out.points);
   const std::size_t n = out.points.size();
   const auto& pos = out.points.positions;
@@ -650,7 +703,7 @@ void save_ppf_model(const std::filesystem::path& path, const PpfModel& model) {
   bytes.reserve(kHeaderBytes + p * kPointBytes + model.keys.size() * (kKeyBytes + kOffsetBytes) +
                 model.refs.size() * kEntryBytes + kOffsetBytes);
   bytes.append(kMagic, sizeof kMagic);
-  put_u32(bytes, kVersion);
+  put_u32(bytes, model.outward ? kVersionOutward : kVersion);
   put_u32(bytes, model.angle_bins);
   put_f64(bytes, model.voxel);
   put_f64(bytes, model.diameter);
@@ -692,6 +745,167 @@ PpfModel load_ppf_model(const std::filesystem::path& path) {
   if (counts.keys == 0 && counts.entries != 0) throw format_error(path, "entries without keys", 48);
   read_entries(body, counts, model);
   return model;
+}
+
+// ---- Many instances (ppf.hpp: ppf_scene, ppf_hypotheses) ----
+
+namespace {
+
+constexpr double kSpreadMargin = 0.25;  // a neighbouring bin is looked up within this of the edge
+constexpr std::size_t kMaxDenseKeys = std::size_t{1} << 24;
+
+// The table as the voting of many instances reads it: the bucket of every feature key through a
+// dense array over the key range (one load per lookup; the keys span a few hundred thousand values
+// at 30 bins), or a binary search when too large; and per entry its accumulator row (reference ×
+// bins) and α_m's bin, so a vote is integer arithmetic (α = α_m − α_s in bins, as Drost quantises
+// both angles).
+class VoteTable {
+ public:
+  explicit VoteTable(const PpfModel& model) : keys_(model.keys), bins_(model.angle_bins) {
+    if (!keys_.empty() && keys_.back() < kMaxDenseKeys) {
+      dense_.assign(keys_.back() + 1, kNone);
+      for (std::size_t k = 0; k < keys_.size(); ++k)
+        dense_[keys_[k]] = static_cast<std::uint32_t>(k);
+    }
+    row_.resize(model.refs.size());
+    alpha_bin_.resize(model.refs.size());
+    for (std::size_t e = 0; e < model.refs.size(); ++e) {
+      row_[e] = model.refs[e] * bins_;
+      alpha_bin_[e] = alpha_bin(model.alphas[e]);
+    }
+  }
+  // The bucket of `key`, or kNone.
+  std::uint32_t find(std::uint64_t key) const {
+    if (!dense_.empty()) return key < dense_.size() ? dense_[key] : kNone;
+    const auto it = std::lower_bound(keys_.begin(), keys_.end(), key);
+    return it != keys_.end() && *it == key ? static_cast<std::uint32_t>(it - keys_.begin()) : kNone;
+  }
+  // The bin of an angle in [−π, π].
+  std::uint32_t alpha_bin(double alpha) const {
+    const auto b = static_cast<std::uint32_t>(std::max(0.0, (alpha + kPi) / (2 * kPi) * bins_));
+    return std::min(b, bins_ - 1);
+  }
+  std::uint32_t row(std::size_t e) const { return row_[e]; }
+  std::uint32_t alpha(std::size_t e) const { return alpha_bin_[e]; }
+  static constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
+
+ private:
+  const std::vector<std::uint64_t>& keys_;
+  std::uint32_t bins_;
+  std::vector<std::uint32_t> dense_, row_, alpha_bin_;
+};
+
+// The bins a feature value is looked up in: its own, and the neighbour on the near side when it
+// lies within kSpreadMargin of that edge (and that bin exists). Returns how many (1 or 2).
+int spread_bins(double value, std::uint64_t last, std::array<std::uint64_t, 2>& out) {
+  const auto bin = std::min<std::uint64_t>(last, static_cast<std::uint64_t>(value));
+  out[0] = bin;
+  const double frac = value - static_cast<double>(bin);
+  if (frac < kSpreadMargin && bin > 0) return out[1] = bin - 1, 2;
+  if (frac > 1 - kSpreadMargin && bin < last) return out[1] = bin + 1, 2;
+  return 1;
+}
+
+// Per-thread accumulator: votes per (model reference, α bin) cell and, per cell, the last scene
+// pair that voted for it (one vote per pair and cell).
+struct Accumulator {
+  std::vector<std::uint32_t> votes, last_pair;
+  std::uint32_t pair = 0;
+  void reset(std::size_t cells) {
+    votes.assign(cells, 0);
+    if (last_pair.size() != cells || pair > std::numeric_limits<std::uint32_t>::max() / 2) {
+      last_pair.assign(cells, 0);
+      pair = 0;
+    }
+  }
+};
+
+// The votes of scene reference r (ppf.hpp: neighbouring bins, one vote per pair and cell).
+void accumulate_spread_votes(const PpfModel& model, const VoteTable& table, const PointCloud& down,
+                             const KdTree& scene_tree, std::size_t r, Accumulator& acc) {
+  thread_local std::vector<Neighbor> nb;
+  const std::uint32_t bins = model.angle_bins;
+  const Eigen::Vector3d& p_r = down.positions[r];
+  const Eigen::Vector3d& n_r = down.normals[r];
+  const Eigen::Isometry3d T_s = to_x_axis(p_r, n_r);
+  const auto last_distance_bin = static_cast<std::uint64_t>(model.diameter / model.voxel) + 1;
+  scene_tree.radius(p_r, model.diameter * model.diameter, nb);
+  for (const Neighbor& m : nb) {
+    std::array<double, 4> f;
+    if (m.index == r || !feature_values(p_r, n_r, down.positions[m.index], down.normals[m.index],
+                                        model.voxel, bins, f))
+      continue;
+    std::array<std::array<std::uint64_t, 2>, 4> b;
+    std::array<int, 4> count;
+    count[0] = spread_bins(f[0], last_distance_bin, b[0]);
+    for (int a = 1; a < 4; ++a) count[a] = spread_bins(f[a], bins - 1, b[a]);
+    // The bin of α = α_m − α_s is that of α_m (bins from −π) less ⌊α_s / step⌋, modulo bins.
+    const auto alpha_s = static_cast<long>(
+        std::floor(half_plane_angle(T_s, down.positions[m.index]) / (2 * kPi) * bins));
+    const auto shift =
+        static_cast<std::uint32_t>(((-alpha_s) % static_cast<long>(bins) + bins) % bins);
+    const std::uint32_t pair = ++acc.pair;
+    for (int i0 = 0; i0 < count[0]; ++i0)
+      for (int i1 = 0; i1 < count[1]; ++i1)
+        for (int i2 = 0; i2 < count[2]; ++i2)
+          for (int i3 = 0; i3 < count[3]; ++i3) {
+            const std::uint32_t k =
+                table.find(compose_key(b[0][i0], b[1][i1], b[2][i2], b[3][i3], bins));
+            if (k == VoteTable::kNone) continue;
+            for (std::uint32_t e = model.offsets[k]; e < model.offsets[k + 1]; ++e) {
+              std::uint32_t a = table.alpha(e) + shift;
+              a = a >= bins ? a - bins : a;
+              const std::size_t cell = table.row(e) + a;
+              if (acc.last_pair[cell] == pair) continue;
+              acc.last_pair[cell] = pair;
+              ++acc.votes[cell];
+            }
+          }
+  }
+}
+
+}  // namespace
+
+PointCloud ppf_scene(const PointCloud& scene, double voxel, const Eigen::Vector3d& viewpoint,
+                     int threads) {
+  return oriented_downsample(scene, voxel, threads, "scene", Orient::kToward, viewpoint);
+}
+
+std::vector<PpfHypothesis> ppf_hypotheses(const PpfModel& model, const PointCloud& scene,
+                                          const Symmetry& symmetry, std::size_t max_hypotheses,
+                                          int threads) {
+  if (!model.outward || !(model.voxel > 0) || model.angle_bins == 0 ||
+      model.points.size() < kMinPoints || !model.points.has_normals() ||
+      model.offsets.size() != model.keys.size() + 1)
+    throw std::invalid_argument(
+        "ppf_hypotheses: the model is inconsistent or was not built with outward normals");
+  if (scene.size() < 2 || !scene.has_normals()) return {};
+  const KdTree scene_tree(scene.positions, threads);
+  const VoteTable table(model);
+  const std::size_t references = (scene.size() + kSceneReferenceStep - 1) / kSceneReferenceStep;
+  const std::size_t cells = model.points.size() * model.angle_bins;
+  std::vector<Peaks> peaks(references);
+  parallel_for(references, threads, [&](std::size_t j) {
+    thread_local Accumulator acc;
+    acc.reset(cells);
+    accumulate_spread_votes(model, table, scene, scene_tree, j * kSceneReferenceStep, acc);
+    peaks[j] = highest_cells(acc.votes);
+  });
+  // peak_poses gives T_model_scene; each pose, inverted and in canonical form, is clustered by
+  // where it puts the model's centroid.
+  std::vector<Candidate> candidates = peak_poses(model, scene, peaks);
+  for (Candidate& c : candidates) c.T = canonical_pose(c.T.inverse(), symmetry);
+  const Eigen::Vector3d model_centre = centroid(model.points);
+  const std::vector<Cluster> clusters = cluster_poses(candidates, model_centre, model.voxel);
+  std::vector<PpfHypothesis> out;
+  for (std::size_t c = 0; c < clusters.size() && out.size() < max_hypotheses; ++c) {
+    const Cluster& cl = clusters[c];
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.linear() = Eigen::Quaterniond(Eigen::Vector4d(cl.q_sum.normalized())).toRotationMatrix();
+    T.translation() = cl.x_sum / cl.votes - T.linear() * model_centre;
+    out.push_back({T, cl.votes});
+  }
+  return out;
 }
 
 }  // namespace align3d

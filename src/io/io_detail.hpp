@@ -257,11 +257,16 @@ class CloudBuilder {
   // Only call with a count already checked against the bytes the file holds.
   void reserve(std::size_t count);
 
+  // Also records the file index of every kept point (ReadInfo::indices: an organized cloud's
+  // pixels). Call before adding points.
+  void keep_indices() { keep_indices_ = true; }
+
   void add(double x, double y, double z) {
     if (!(std::isfinite(x) && std::isfinite(y) && std::isfinite(z))) {
       ++dropped_;
       return;
     }
+    keep_index(positions_.size() + dropped_);
     positions_.emplace_back(x, y, z);
   }
 
@@ -270,6 +275,7 @@ class CloudBuilder {
       ++dropped_;
       return;
     }
+    keep_index(positions_.size() + dropped_);
     positions_.emplace_back(x, y, z);
     if (normals_ok_) keep_normal(Eigen::Vector3d(nx, ny, nz), normals_.size());
   }
@@ -285,8 +291,14 @@ class CloudBuilder {
 
   std::size_t dropped() const { return dropped_; }
   PointCloud finish();
+  // After finish(): the file index of each kept point, if keep_indices() was called.
+  std::vector<std::uint32_t> take_indices() { return std::move(indices_); }
 
  private:
+  void keep_index(std::size_t file_index) {
+    if (keep_indices_) indices_.push_back(static_cast<std::uint32_t>(file_index));
+  }
+
   // A zero normal is how many tools write "unknown"; it cannot be made a unit vector. Others are
   // scaled by their largest component first, so that tiny (even subnormal) or huge components
   // still normalise to a unit vector: their squared norm would underflow or overflow.
@@ -310,6 +322,8 @@ class CloudBuilder {
   bool normals_ok_;
   bool columns_ = false;  // filled by allocate() and set()
   std::size_t dropped_ = 0;
+  bool keep_indices_ = false;
+  std::vector<std::uint32_t> indices_;
 };
 
 // Where a record's fields of interest lie: the six components x y z nx ny nz (the last three only

@@ -440,6 +440,7 @@ PointCloud read_pcd(BlockReader& in, ReadInfo& info) {
   const PcdHeader header = parse_header(lines);
   const FieldIndex layout = field_index(in.path(), header);
   CloudBuilder builder(in.path(), layout.normals);
+  if (header.height > 1) builder.keep_indices();
   switch (header.data) {
     case PcdData::kAscii:
       read_ascii(lines, header, layout, builder);
@@ -456,6 +457,7 @@ PointCloud read_pcd(BlockReader& in, ReadInfo& info) {
   info.viewpoint = header.viewpoint;
   PointCloud cloud = builder.finish();
   info.dropped_non_finite = builder.dropped();
+  info.indices = builder.take_indices();
   return cloud;
 }
 

@@ -28,6 +28,7 @@ void check(const std::vector<Eigen::Vector3d>& positions, const PlyAttributes& a
   std::set<std::string> names = {"x", "y", "z", "red", "green", "blue"};
   for (const auto& [name, values] : a.scalars)
     check_property(name, values, positions.size(), names);
+  for (const auto& [name, values] : a.ints) check_property(name, values, positions.size(), names);
   for (const auto& [name, values] : a.bytes) check_property(name, values, positions.size(), names);
   if (!a.colors.empty() && a.colors.size() != positions.size())
     throw std::invalid_argument("write_ply: " + std::to_string(a.colors.size()) + " colours for " +
@@ -43,6 +44,7 @@ void write_ply(const std::filesystem::path& path, const std::vector<Eigen::Vecto
   header += "element vertex " + std::to_string(positions.size()) +
             "\nproperty float x\nproperty float y\nproperty float z\n";
   for (const auto& scalar : a.scalars) header += "property float " + scalar.first + "\n";
+  for (const auto& integer : a.ints) header += "property int " + integer.first + "\n";
   for (const auto& byte : a.bytes) header += "property uchar " + byte.first + "\n";
   if (!a.colors.empty())
     header += "property uchar red\nproperty uchar green\nproperty uchar blue\n";
@@ -56,6 +58,7 @@ void write_ply(const std::filesystem::path& path, const std::vector<Eigen::Vecto
       for (int k = 0; k < 3; ++k)
         detail::append_bytes(buffer, detail::to_float(positions[i][k]), swap);
       for (const auto& scalar : a.scalars) detail::append_bytes(buffer, scalar.second[i], swap);
+      for (const auto& integer : a.ints) detail::append_bytes(buffer, integer.second[i], swap);
       for (const auto& byte : a.bytes) buffer += static_cast<char>(byte.second[i]);
       if (!a.colors.empty())
         for (std::uint8_t c : a.colors[i]) buffer += static_cast<char>(c);

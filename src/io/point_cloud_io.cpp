@@ -45,6 +45,7 @@ void fail_out_of_memory(const std::filesystem::path& path, const std::string& wh
 void CloudBuilder::reserve(std::size_t count) {
   try {
     positions_.reserve(count);
+    if (keep_indices_) indices_.reserve(count);
     if (normals_ok_) normals_.reserve(count);
   } catch (const std::bad_alloc&) {
     const double bytes =
@@ -74,6 +75,7 @@ PointCloud CloudBuilder::finish() {
         continue;
       }
       positions_[kept] = p;
+      keep_index(i);
       if (normals_ok_) keep_normal(normals_[i], kept);
       ++kept;
     }

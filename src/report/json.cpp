@@ -170,6 +170,58 @@ nlohmann::json inspection_report(const InspectResult& r, const InspectSettings& 
   return j;
 }
 
+nlohmann::json find_report(const FindResult& r, const FindSettings& s, const InputInfo& model,
+                           const InputInfo& scene) {
+  nlohmann::json instances = nlohmann::json::array();
+  for (std::size_t k = 0; k < r.instances.size(); ++k) {
+    const FoundInstance& f = r.instances[k];
+    instances.push_back({{"rank", k + 1},
+                         {"transformation", to_json(f.T_scene_model)},
+                         {"score", f.score},
+                         {"visible_fraction", f.visible_fraction},
+                         {"rms", f.rms},
+                         {"points", f.explained},
+                         {"symmetry", r.symmetry.name()}});
+  }
+  const RangeImage& im = r.image;
+  return {{"instances", instances},
+          {"model",
+           {{"path", model.path},
+            {"points", model.points},
+            {"triangles", model.triangles},
+            {"diameter", r.model_diameter},
+            {"voxel", r.voxel},
+            {"feature_points", r.model_points},
+            {"symmetry", r.symmetry.name()}}},
+          {"scene",
+           {{"path", scene.path},
+            {"points", scene.points},
+            {"organized", im.organized},
+            {"width", im.width},
+            {"height", im.height},
+            {"camera", {{"fx", im.fx}, {"fy", im.fy}, {"cx", im.cx}, {"cy", im.cy}}},
+            {"camera_pose", to_json(im.T_cloud_camera)},
+            {"depth_dropped", r.depth_dropped},
+            {"plane_points", r.plane_points},
+            {"voting_points", r.voting_points}}},
+          {"hypotheses", r.hypotheses},
+          {"settings",
+           {{"max_instances", s.max_instances},
+            {"min_score", s.min_score},
+            {"symmetry", s.detect_symmetry ? "auto" : s.symmetry.name()},
+            {"remove_plane", s.remove_plane},
+            {"min_depth", s.min_depth},
+            {"max_depth", s.max_depth},
+            {"seed", s.seed}}},
+          {"warnings", to_json(r.warnings)},
+          {"timing_ms",
+           {{"prepare", r.prepare_ms},
+            {"vote", r.vote_ms},
+            {"refine", r.refine_ms},
+            {"verify", r.verify_ms},
+            {"total", r.total_ms}}}};
+}
+
 nlohmann::json rectify_report(const RectifyResult& r, const RectifySettings& s,
                               const InputInfo& cloud) {
   return {{"cloud", {{"path", cloud.path}, {"points", cloud.points}}},

@@ -35,6 +35,7 @@
 #include <vector>
 
 #include "align3d/coarse/global.hpp"
+#include "align3d/symmetry.hpp"
 
 namespace align3d {
 
@@ -43,7 +44,10 @@ struct PpfModel {
   double voxel = 0;     // downsampling voxel = distance quantisation step (data units)
   double diameter = 0;  // largest pair distance (the bounding-box diagonal of `points`)
   std::uint32_t angle_bins = 30;
-  PointCloud points;  // downsampled model with unit normals pointing away from its centroid
+  // The normals' sign: away from the centroid (ppf_register's rule, the header's), or outward
+  // from the part's material (built from a mesh or a cloud with such normals: `align3d find`).
+  bool outward = false;
+  PointCloud points;  // downsampled model with unit normals, signed as `outward` says
   // The table in compressed-row form: keys sorted and unique; the pairs with feature keys[k] are
   // entries [offsets[k], offsets[k + 1]) of `refs` (model reference point) and `alphas` (α_m,
   // radians in [−π, π]). Entries of one key are ordered by (reference point, paired point).
@@ -57,10 +61,14 @@ struct PpfModel {
 // holds at most ~2.25 M pairs; PpfModel::voxel is the size used), estimates normals and builds the
 // table. Throws DataError("model", …) with fewer than 10 points after downsampling or all points
 // on a line; std::invalid_argument for a voxel that is not positive.
-PpfModel build_ppf_model(const PointCloud& model, double voxel, int threads = 0);
+// With `outward`, the PCA normals take the sign of the model's own normals (averaged per voxel;
+// std::invalid_argument when it has none).
+PpfModel build_ppf_model(const PointCloud& model, double voxel, int threads = 0,
+                         bool outward = false);
 
-// Binary file, little-endian throughout (version 1):
-//   magic "A3DPPF\r\n" (8 bytes), u32 version = 1, u32 angle_bins, f64 voxel, f64 diameter,
+// Binary file, little-endian throughout (version 1; version 2 has the same layout and marks a
+// model with outward normals):
+//   magic "A3DPPF\r\n" (8 bytes), u32 version = 1 or 2, u32 angle_bins, f64 voxel, f64 diameter,
 //   u64 point count P, u64 key count K, u64 entry count E               (header: 56 bytes)
 //   P × (3 f64 position, 3 f64 normal), K × u64 key, (K + 1) × u32 offset, E × (u32 ref, f32 α).
 // The writer goes through io::write_atomically (OutputError on failure). The loader checks the
@@ -84,5 +92,33 @@ GlobalResult ppf_match(const PpfModel& model, const PointCloud& scene,
 // noted in `message`. DataError names the role ("source"/"target") of the cloud at fault.
 GlobalResult ppf_register(const PointCloud& source, const PointCloud& target,
                           const GlobalSettings& settings, const GlobalContext& context = {});
+
+// ---- Many instances in one scene (`align3d find`, find.hpp) ----
+//
+// The model must have outward normals and the scene's normals point toward the camera: the sides
+// a camera sees of a part are those whose outward normals face it. The voting adds what Vidal et
+// al. (2018) found to matter: each scene pair also looks up the neighbouring feature bins of
+// every dimension whose value lies within a quarter bin of the edge (noise moves features across
+// bin edges), and one scene pair votes at most once for any (model reference, α bin) cell
+// (Hinterstoisser et al. 2016). Every kSceneReferenceStep-th scene point is a reference, its 3
+// highest cells become poses, the poses are clustered (12°, 2 voxels; for a symmetric part after
+// turning each to its canonical form, symmetry.hpp, so the votes for one instance are not spread
+// over its equivalent poses) and the clusters with the most votes returned, at most
+// `max_hypotheses`, most votes first. Same result whatever the thread count.
+
+// Voxel centroids of the scene with PCA normals (as the model's) turned toward `viewpoint`.
+// Throws DataError("scene", …) with fewer than 10 points after downsampling or all on a line.
+PointCloud ppf_scene(const PointCloud& scene, double voxel, const Eigen::Vector3d& viewpoint,
+                     int threads = 0);
+
+struct PpfHypothesis {
+  Eigen::Isometry3d T_scene_model;  // scene ≈ T·model
+  double votes = 0;                 // of its pose cluster
+};
+
+// std::invalid_argument for a model without outward normals or inconsistent.
+std::vector<PpfHypothesis> ppf_hypotheses(const PpfModel& model, const PointCloud& scene,
+                                          const Symmetry& symmetry, std::size_t max_hypotheses,
+                                          int threads = 0);
 
 }  // namespace align3d

@@ -15,14 +15,17 @@ namespace align3d::io {
 struct PlyAttributes {
   // property float <name>, one value per point (NaN allowed: a viewer shows it as "no value").
   std::vector<std::pair<std::string, std::vector<float>>> scalars;
+  // property int <name>, one value per point (ids beyond a byte's range: an instance's rank).
+  std::vector<std::pair<std::string, std::vector<std::int32_t>>> ints;
   // property uchar <name>, one value per point (labels, counts).
   std::vector<std::pair<std::string, std::vector<std::uint8_t>>> bytes;
   std::vector<std::array<std::uint8_t, 3>> colors;  // uchar red green blue; empty: none
 };
 
-// Binary little-endian PLY: float x y z, then the scalars, the bytes (each in order), then the
-// colours. Every attribute must have one entry per point and names must be unique identifiers
-// (std::invalid_argument otherwise). Atomic (OutputError on failure, nothing left behind).
+// Binary little-endian PLY: float x y z, then the scalars, the ints, the bytes (each in order),
+// then the colours. Every attribute must have one entry per point and names must be unique
+// identifiers (std::invalid_argument otherwise). Atomic (OutputError on failure, nothing left
+// behind).
 void write_ply(const std::filesystem::path& path, const std::vector<Eigen::Vector3d>& positions,
                const PlyAttributes& attributes);
 

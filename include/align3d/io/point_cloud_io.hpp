@@ -35,10 +35,12 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <cstdint>
 #include <filesystem>
 #include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "align3d/point_cloud.hpp"
 
@@ -58,6 +60,9 @@ struct ReadInfo {
   std::size_t width = 0;
   std::size_t height = 0;
   Viewpoint viewpoint;  // a PCD's VIEWPOINT; other formats: the identity
+  // An organized PCD (HEIGHT > 1): the index in the file (row-major, v·WIDTH + u: the pixel) of
+  // each point read; otherwise empty.
+  std::vector<std::uint32_t> indices;
 };
 
 PointCloud read_point_cloud(const std::filesystem::path& path, ReadInfo* info = nullptr);

@@ -15,6 +15,7 @@
 
 #include "align3d/align.hpp"
 #include "align3d/coarse/global.hpp"
+#include "align3d/find.hpp"
 #include "align3d/inspect.hpp"
 #include "align3d/plane/rectify.hpp"
 #include "align3d/warning.hpp"
@@ -45,6 +46,12 @@ nlohmann::json registration_report(const AlignResult& result, const AlignSetting
 // and every warning.
 nlohmann::json inspection_report(const InspectResult& result, const InspectSettings& settings,
                                  const InputInfo& scan, const InputInfo& cad);
+
+// The report of one search for instances (`align3d find`; docs/report.md, "find"): the instances
+// best first (transformation MODEL → SCENE, score, visible fraction, RMS, the symmetry), the model,
+// the scene, the settings used, the timings and every warning.
+nlohmann::json find_report(const FindResult& result, const FindSettings& settings,
+                           const InputInfo& model, const InputInfo& scene);
 
 // The report of one plane correction (`align3d rectify`; docs/report.md, "rectify").
 nlohmann::json rectify_report(const RectifyResult& result, const RectifySettings& settings,

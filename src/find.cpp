@@ -1,0 +1,575 @@
+#include "align3d/find.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <numeric>
+#include <stdexcept>
+
+#include "align3d/coarse/voxel.hpp"
+#include "align3d/error.hpp"
+#include "align3d/icp/icp.hpp"
+#include "align3d/io/point_cloud_io.hpp"
+#include "align3d/kdtree.hpp"
+#include "align3d/plane/plane.hpp"
+#include "detail/parallel.hpp"
+
+namespace align3d {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double ms_since(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+// Every distance below is a multiple of the model's voxel (a share of its diameter).
+constexpr std::size_t kMaxHypotheses = 96;
+constexpr double kPlaneShare = 0.2;       // a plane with this share of the scene is the floor
+constexpr double kPlaneVoxels = 0.5;      // RANSAC's inlier distance for the floor
+constexpr double kExplainVoxels = 0.75;   // a scene point this near explains a model point
+constexpr double kFreeSpaceVoxels = 1.5;  // scene this far behind a model point: seen through it
+constexpr double kMinFacing = 0.26;       // cos 75°: steeper surfaces return nothing (sensors)
+constexpr double kSymmetryVoxels = 0.1;   // mean misfit of a turn that counts as a symmetry
+// The disc each model point covers in its view: wide enough to close the gaps between the points
+// (a voxel apart) so the outline is the part's, not each point's.
+constexpr double kSplatVoxels = 0.75;
+constexpr double kMinExplainedShare = 0.1;  // of the visible model points, and at least:
+constexpr std::size_t kMinExplained = 10;
+constexpr double kMinSceneShare = 0.5;  // scene extent / model diameter below this: an error
+
+std::string number(double value) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.4g", value);
+  return text;
+}
+
+void check_settings(const FindSettings& s) {
+  if (s.max_instances < 0) throw std::invalid_argument("find: max_instances must be >= 0");
+  if (!(s.min_score > 0 && s.min_score <= 1))
+    throw std::invalid_argument("find: min_score must be in (0, 1], got " + number(s.min_score));
+  if (!(s.min_depth >= 0) || !(s.max_depth > s.min_depth))
+    throw std::invalid_argument("find: the depth range must satisfy 0 <= min < max, got " +
+                                number(s.min_depth) + " to " + number(s.max_depth));
+  if (s.threads < 0) throw std::invalid_argument("find: threads must be >= 0 (0: all cores)");
+}
+
+// The scene in its camera's frame: every point (scene order), whether it is in the depth range,
+// and the downsampled voting cloud (in range, off the floor) with normals toward the camera.
+struct Prepared {
+  RangeImage image;
+  std::vector<Eigen::Vector3d> points;
+  std::vector<char> in_range;
+  PointCloud voting;
+  std::unique_ptr<KdTree> voting_tree;
+  std::size_t depth_dropped = 0, plane_points = 0;
+};
+
+// Removes the dominant plane from `kept` (indices into prep.points) when it holds kPlaneShare.
+void remove_floor(Prepared& prep, std::vector<std::size_t>& kept, double voxel,
+                  std::uint64_t seed) {
+  PointCloud sample;
+  for (std::size_t i : kept) sample.positions.push_back(prep.points[i]);
+  sample = voxel_downsample(sample, voxel / 2);
+  RansacPlaneSettings rs;
+  rs.threshold = kPlaneVoxels * voxel;
+  rs.seed = seed;
+  RansacPlaneResult plane;
+  try {
+    plane = ransac_plane(sample.positions, rs);
+  } catch (const DataError&) {
+    return;  // no plane at all: nothing to remove
+  }
+  if (static_cast<double>(plane.inliers.size()) < kPlaneShare * static_cast<double>(sample.size()))
+    return;
+  // The band removed: 3 σ of the raw points near the plane (a depth camera's noise is larger
+  // than the downsampled sample's), at least RANSAC's distance.
+  double sq_sum = 0;
+  std::size_t near = 0;
+  for (std::size_t i : kept) {
+    const double d = plane.plane.signed_distance(prep.points[i]);
+    if (std::abs(d) <= voxel) sq_sum += d * d, ++near;
+  }
+  const double band =
+      std::max(kPlaneVoxels * voxel,
+               3 * std::sqrt(sq_sum / static_cast<double>(std::max<std::size_t>(near, 1))));
+  std::erase_if(kept, [&](std::size_t i) {
+    const bool on = std::abs(plane.plane.signed_distance(prep.points[i])) <= band;
+    prep.plane_points += on ? 1 : 0;
+    return on;
+  });
+}
+
+Prepared prepare_scene(const FindScene& scene, const PpfModel& model, const FindSettings& s) {
+  if (scene.cloud.empty()) throw DataError("scene", "holds no points");
+  Prepared prep;
+  const bool organized = scene.width > 0 && scene.height > 0 && !scene.pixels.empty();
+  prep.image = organized
+                   ? organized_range_image(scene.cloud, scene.pixels, static_cast<int>(scene.width),
+                                           static_cast<int>(scene.height), scene.T_cloud_camera)
+                   : projected_range_image(scene.cloud, scene.T_cloud_camera);
+  const Eigen::Isometry3d T_camera_cloud = prep.image.T_cloud_camera.inverse();
+  prep.points.resize(scene.cloud.size());
+  prep.in_range.resize(scene.cloud.size());
+  std::vector<std::size_t> kept;
+  for (std::size_t i = 0; i < scene.cloud.size(); ++i) {
+    prep.points[i] = T_camera_cloud * scene.cloud.positions[i];
+    const double z = prep.points[i].z();
+    prep.in_range[i] = z > 0 && z >= s.min_depth && z <= s.max_depth;
+    if (prep.in_range[i]) kept.push_back(i);
+  }
+  prep.depth_dropped = scene.cloud.size() - kept.size();
+  if (kept.size() < 10)
+    throw DataError("scene", std::to_string(kept.size()) +
+                                 " points in front of the camera within the depth range");
+  Eigen::AlignedBox3d box;
+  for (std::size_t i : kept) box.extend(prep.points[i]);
+  if (box.diagonal().norm() < kMinSceneShare * model.diameter)
+    throw DataError("model", "its diameter (" + number(model.diameter) +
+                                 ") is larger than the whole scene (extent " +
+                                 number(box.diagonal().norm()) +
+                                 "): a model in other units than the scene, or the files swapped?");
+  if (s.remove_plane) remove_floor(prep, kept, model.voxel, s.seed);
+  PointCloud rest;
+  rest.positions.reserve(kept.size());
+  for (std::size_t i : kept) rest.positions.push_back(prep.points[i]);
+  try {
+    prep.voting = ppf_scene(rest, model.voxel, Eigen::Vector3d::Zero(), s.threads);
+  } catch (const DataError&) {
+    // Too little left off the floor to vote: no instance (an empty bin).
+  }
+  prep.voting_tree = std::make_unique<KdTree>(prep.voting.positions, s.threads);
+  return prep;
+}
+
+// What the depth image says about a hypothesis (find.hpp, step 4), counted over the model points
+// the camera would see.
+struct Evidence {
+  std::size_t visible = 0, explained = 0, seen_through = 0, occluded = 0, missing = 0;
+  std::vector<std::uint32_t> pixels;  // where the explained points were matched
+  double sq_sum = 0;                  // of the explained distances
+  double continuation = 0;            // outline_continuation
+  double score(std::size_t explained_free) const {
+    const double usable = std::max<double>(1, static_cast<double>(visible - missing));
+    return (static_cast<double>(explained_free) - static_cast<double>(seen_through)) / usable -
+           continuation;
+  }
+  double visible_fraction() const {
+    const double usable = std::max<double>(1, static_cast<double>(visible - missing));
+    return (usable - static_cast<double>(occluded)) / usable;
+  }
+};
+
+// The model as the camera would see it at a pose: its projection's box (lo, size), per pixel the
+// nearest model point (−1: none) splatted over a disc of half a voxel, and the model points it
+// sees (facing the camera and in front in that z-buffer) with their pixels.
+struct ModelView {
+  Eigen::Vector2i lo, size;
+  std::vector<float> z;
+  std::vector<std::int32_t> owner;
+  std::vector<std::size_t> visible;
+  std::vector<Eigen::Vector2i> uv;  // per model point; meaningful for those projected
+  std::size_t at(int u, int v) const {
+    return static_cast<std::size_t>(v - lo.y()) * size.x() + (u - lo.x());
+  }
+  bool inside(int u, int v) const {
+    return u >= lo.x() && v >= lo.y() && u < lo.x() + size.x() && v < lo.y() + size.y();
+  }
+};
+
+ModelView view_model(const std::vector<Eigen::Vector3d>& p, const std::vector<Eigen::Vector3d>& n,
+                     const RangeImage& image, double voxel, int margin) {
+  ModelView view;
+  view.uv.assign(p.size(), Eigen::Vector2i(-1, -1));
+  Eigen::AlignedBox2i box;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    if (!(p[i].z() > 0) || n[i].dot(-p[i].normalized()) < kMinFacing) continue;
+    const Eigen::Vector2d q = image.project(p[i]);
+    const long u = std::lround(q.x()), v = std::lround(q.y());
+    if (u < 0 || v < 0 || u >= image.width || v >= image.height) continue;
+    view.uv[i] = Eigen::Vector2i(static_cast<int>(u), static_cast<int>(v));
+    box.extend(view.uv[i]);
+    view.visible.push_back(i);
+  }
+  if (view.visible.empty()) return view;
+  // Room for the widest disc (of the nearest point) and the ring of `margin` pixels around it.
+  double nearest = std::numeric_limits<double>::infinity();
+  for (std::size_t i : view.visible) nearest = std::min(nearest, p[i].z());
+  const int room = static_cast<int>(std::ceil(kSplatVoxels * voxel * image.fx / nearest)) + margin;
+  view.lo = box.min() - Eigen::Vector2i::Constant(room);
+  view.size = box.sizes() + Eigen::Vector2i::Constant(2 * room + 1);
+  // Two splats: discs of half a voxel for the z-buffer (a point behind another surface of the
+  // part by more than a voxel is hidden; on one face, tilted up to 60°, nothing hides), and of
+  // kSplatVoxels for the owners, which close the outline.
+  view.z.assign(static_cast<std::size_t>(view.size.x()) * view.size.y(),
+                std::numeric_limits<float>::infinity());
+  std::vector<float> owner_z = view.z;
+  view.owner.assign(view.z.size(), -1);
+  const auto splat = [&](std::size_t i, int r, std::vector<float>& z, bool own) {
+    for (int dv = -r; dv <= r; ++dv)
+      for (int du = -r; du <= r; ++du) {
+        const int u = view.uv[i].x() + du, v = view.uv[i].y() + dv;
+        if (!view.inside(u, v) || !(p[i].z() < z[view.at(u, v)])) continue;
+        z[view.at(u, v)] = static_cast<float>(p[i].z());
+        if (own) view.owner[view.at(u, v)] = static_cast<std::int32_t>(i);
+      }
+  };
+  for (std::size_t i : view.visible) {
+    const double pixels_per_voxel = voxel * image.fx / p[i].z();
+    splat(i, static_cast<int>(0.5 * pixels_per_voxel), view.z, false);
+    splat(i, static_cast<int>(std::ceil(kSplatVoxels * pixels_per_voxel)), owner_z, true);
+  }
+  std::erase_if(view.visible, [&](std::size_t i) {
+    return p[i].z() > view.z[view.at(view.uv[i].x(), view.uv[i].y())] + voxel;
+  });
+  return view;
+}
+
+// Whether scene point b continues the surface through scene point a: no step in depth larger than
+// `explain`, or (a slanted surface, a wall seen at a grazing angle) b within half that of the
+// tangent plane of the voting point nearest a.
+bool continues(const Prepared& prep, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+               double explain) {
+  if (std::abs(b.z() - a.z()) <= explain) return true;
+  Neighbor nn;
+  if (!prep.voting_tree->nearest(a, nn, 4 * explain * explain)) return false;
+  return std::abs(prep.voting.normals[nn.index].dot(b - a)) <= explain / 2;
+}
+
+// The share of the scene just outside the model's outline (a ring `margin` pixels wide) that
+// continues, without a depth edge (a step of more than `explain`), the scene surface at the
+// nearest outline point's pixel: a real part ends at its outline, a face matched into a larger
+// surface (a box's top, the floor) does not.
+double outline_continuation(ModelView& view, const Prepared& prep, double explain, int margin) {
+  const RangeImage& image = prep.image;
+  std::size_t valid = 0, continuing = 0;
+  std::vector<std::int32_t> next;
+  for (int step = 0; step < margin; ++step) {  // grow the owners outward one pixel per step
+    next = view.owner;
+    for (int v = view.lo.y(); v < view.lo.y() + view.size.y(); ++v)
+      for (int u = view.lo.x(); u < view.lo.x() + view.size.x(); ++u) {
+        if (view.owner[view.at(u, v)] >= 0) continue;
+        for (const auto& [du, dv] : {std::pair{1, 0}, {-1, 0}, {0, 1}, {0, -1}})
+          if (view.inside(u + du, v + dv) && view.owner[view.at(u + du, v + dv)] >= 0) {
+            next[view.at(u, v)] = view.owner[view.at(u + du, v + dv)];
+            if (u < 0 || v < 0 || u >= image.width || v >= image.height) break;
+            const std::int32_t q = image.point[image.pixel(u, v)];
+            if (q < 0 || !prep.in_range[static_cast<std::size_t>(q)]) break;
+            // The scene at the owner's own pixel: is there a depth edge between the two?
+            const auto m = static_cast<std::size_t>(next[view.at(u, v)]);
+            const std::int32_t o = image.point[image.pixel(view.uv[m].x(), view.uv[m].y())];
+            if (o < 0 || !prep.in_range[static_cast<std::size_t>(o)]) break;
+            ++valid;
+            continuing += continues(prep, prep.points[static_cast<std::size_t>(o)],
+                                    prep.points[static_cast<std::size_t>(q)], explain)
+                              ? 1
+                              : 0;
+            break;
+          }
+      }
+    view.owner.swap(next);
+  }
+  return valid ? static_cast<double>(continuing) / static_cast<double>(valid) : 0.0;
+}
+
+Evidence verify(const PpfModel& model, const Prepared& prep,
+                const Eigen::Isometry3d& T_camera_model) {
+  const RangeImage& image = prep.image;
+  const double voxel = model.voxel;
+  const double explain = kExplainVoxels * voxel, free = kFreeSpaceVoxels * voxel;
+  std::vector<Eigen::Vector3d> p(model.points.size()), n(model.points.size());
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    p[i] = T_camera_model * model.points.positions[i];
+    n[i] = T_camera_model.linear() * model.points.normals[i];
+  }
+  // The outline ring: half a voxel in pixels at the model's depth, at least 2.
+  const double depth = (T_camera_model * centroid(model.points)).z();
+  const int margin =
+      depth > 0 ? std::max(2, static_cast<int>(std::lround(0.5 * voxel * image.fx / depth))) : 2;
+  ModelView view = view_model(p, n, image, voxel, margin);
+  const std::vector<Eigen::Vector2i>& uv = view.uv;
+  Evidence ev;
+  for (std::size_t i : view.visible) {
+    ++ev.visible;
+    double best = std::numeric_limits<double>::infinity(), nearest_z = best;
+    std::size_t best_pixel = 0;
+    for (int dv = -1; dv <= 1; ++dv)
+      for (int du = -1; du <= 1; ++du) {
+        const int u = uv[i].x() + du, v = uv[i].y() + dv;
+        if (u < 0 || v < 0 || u >= image.width || v >= image.height) continue;
+        const std::size_t at = image.pixel(u, v);
+        const std::int32_t q = image.point[at];
+        if (q < 0 || !prep.in_range[static_cast<std::size_t>(q)]) continue;
+        const Eigen::Vector3d& s = prep.points[static_cast<std::size_t>(q)];
+        nearest_z = std::min(nearest_z, s.z());
+        const double d = (s - p[i]).norm();
+        if (d < best) best = d, best_pixel = at;
+      }
+    if (best <= explain) {
+      ++ev.explained;
+      ev.sq_sum += best * best;
+      ev.pixels.push_back(static_cast<std::uint32_t>(best_pixel));
+    } else if (!std::isfinite(nearest_z)) {
+      ++ev.missing;
+    } else if (nearest_z > p[i].z() + free) {
+      ++ev.seen_through;
+    } else if (nearest_z < p[i].z() - explain) {
+      ++ev.occluded;
+    }
+  }
+  if (!view.visible.empty()) ev.continuation = outline_continuation(view, prep, explain, margin);
+  return ev;
+}
+
+// ICP of the scene's voting points near the hypothesis onto the model (point-to-plane on the
+// model's normals): two rounds, pairs within 2 and then 1 voxel.
+Eigen::Isometry3d refine(const PpfModel& model, const KdTree& model_tree, const PointCloud& voting,
+                         const KdTree& voting_tree, const Eigen::Vector3d& model_centre,
+                         const Eigen::Isometry3d& T_camera_model) {
+  thread_local std::vector<Neighbor> nb;
+  const double reach = model.diameter / 2 + 2 * model.voxel;
+  voting_tree.radius(T_camera_model * model_centre, reach * reach, nb);
+  PointCloud crop;
+  for (const Neighbor& m : nb) crop.positions.push_back(voting.positions[m.index]);
+  if (crop.size() < kMinExplained) return T_camera_model;
+  Eigen::Isometry3d T_model_camera = T_camera_model.inverse();
+  for (const double voxels : {2.0, 1.0}) {
+    IcpSettings s;
+    s.rejection = RejectionRule::max_distance(voxels * model.voxel);
+    s.termination.max_iterations = 30;
+    s.threads = 1;  // the hypotheses run in parallel
+    T_model_camera = icp(crop, model.points, model_tree, T_model_camera, s).T_target_source;
+  }
+  return T_model_camera.inverse();
+}
+
+}  // namespace
+
+FindScene organized_scene(const std::vector<Eigen::Vector3d>& image, std::size_t width,
+                          std::size_t height, const Eigen::Isometry3d& T_cloud_camera) {
+  if (width == 0 || height == 0 || image.size() != width * height)
+    throw std::invalid_argument("organized_scene: " + std::to_string(image.size()) +
+                                " points for a " + std::to_string(width) + " x " +
+                                std::to_string(height) + " image");
+  FindScene scene;
+  scene.width = width, scene.height = height;
+  scene.T_cloud_camera = T_cloud_camera;
+  for (std::size_t i = 0; i < image.size(); ++i)
+    if (image[i].allFinite()) {
+      scene.cloud.positions.push_back(image[i]);
+      scene.pixels.push_back(static_cast<std::uint32_t>(i));
+    }
+  return scene;
+}
+
+FindScene read_find_scene(const std::filesystem::path& path) {
+  io::ReadInfo info;
+  FindScene scene;
+  scene.cloud = io::read_point_cloud(path, &info);
+  scene.cloud.normals.clear();  // find estimates its own, toward the camera
+  if (info.height > 1) {
+    scene.width = info.width, scene.height = info.height;
+    scene.pixels = std::move(info.indices);
+  }
+  scene.T_cloud_camera = Eigen::Translation3d(info.viewpoint.position) * info.viewpoint.orientation;
+  return scene;
+}
+
+PpfModel build_find_model(const TriangleMesh& mesh, double voxel_fraction, int threads) {
+  check_mesh(mesh, "model");
+  const PointCloud samples = sample_surface(mesh, kFindModelSamples);
+  if (samples.size() < 10) throw DataError("model", "the mesh has no area to sample");
+  return build_find_model(samples, voxel_fraction, threads);
+}
+
+PpfModel build_find_model(const PointCloud& model, double voxel_fraction, int threads) {
+  if (!(voxel_fraction > 0 && voxel_fraction < 1))
+    throw std::invalid_argument("find: the voxel fraction must be in (0, 1), got " +
+                                number(voxel_fraction));
+  if (model.size() < 10) throw DataError("model", "fewer than 10 points");
+  const double diameter = bounding_box_diagonal(model);
+  if (!(diameter > 0) || !std::isfinite(diameter))
+    throw DataError("model", "all its points coincide or are not finite");
+  if (model.has_normals()) return build_ppf_model(model, voxel_fraction * diameter, threads, true);
+  // No normals: outward taken as away from the centroid (right for convex parts).
+  PointCloud oriented = model;
+  const Eigen::Vector3d c = centroid(model);
+  oriented.normals.resize(model.size());
+  for (std::size_t i = 0; i < model.size(); ++i) {
+    const Eigen::Vector3d d = model.positions[i] - c;
+    oriented.normals[i] = d.norm() > 0 ? Eigen::Vector3d(d.normalized()) : Eigen::Vector3d::UnitZ();
+  }
+  return build_ppf_model(oriented, voxel_fraction * diameter, threads, true);
+}
+
+namespace {
+
+struct Hypothesis {
+  Eigen::Isometry3d T_camera_model;
+  Evidence evidence;
+};
+
+// The scene points (indices) on the model's surface at the pose: those of the pixels around the
+// model's projection within the explain distance of the surface (tangent plane of the nearest
+// model point). Ascending.
+std::vector<std::uint32_t> instance_points(const PpfModel& model, const KdTree& model_tree,
+                                           const Prepared& prep,
+                                           const Eigen::Isometry3d& T_camera_model) {
+  const RangeImage& image = prep.image;
+  Eigen::AlignedBox2d box;
+  for (const auto& q : model.points.positions) {
+    const Eigen::Vector3d p = T_camera_model * q;
+    if (p.z() > 0) box.extend(image.project(p));
+  }
+  std::vector<std::uint32_t> out;
+  if (box.isEmpty()) return out;
+  const Eigen::Isometry3d T_model_camera = T_camera_model.inverse();
+  const double explain = kExplainVoxels * model.voxel;
+  const int u0 = std::max(0, static_cast<int>(std::floor(box.min().x())) - 2);
+  const int v0 = std::max(0, static_cast<int>(std::floor(box.min().y())) - 2);
+  const int u1 = std::min(image.width - 1, static_cast<int>(std::ceil(box.max().x())) + 2);
+  const int v1 = std::min(image.height - 1, static_cast<int>(std::ceil(box.max().y())) + 2);
+  for (int v = v0; v <= v1; ++v)
+    for (int u = u0; u <= u1; ++u) {
+      const std::int32_t q = image.point[image.pixel(u, v)];
+      if (q < 0 || !prep.in_range[static_cast<std::size_t>(q)]) continue;
+      const Eigen::Vector3d m = T_model_camera * prep.points[static_cast<std::size_t>(q)];
+      Neighbor nn;
+      if (!model_tree.nearest(m, nn, 4 * explain * explain)) continue;
+      const Eigen::Vector3d off = m - model.points.positions[nn.index];
+      if (std::abs(model.points.normals[nn.index].dot(off)) <= explain / 2 &&
+          off.norm() <= 2 * explain)
+        out.push_back(static_cast<std::uint32_t>(q));
+    }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+// Final pose of an accepted instance: point-to-plane ICP of its scene points (full resolution)
+// onto the model, pairs within the explain distance; and the RMS of their plane distances.
+Eigen::Isometry3d final_refine(const PpfModel& model, const KdTree& model_tree,
+                               const Prepared& prep, const std::vector<std::uint32_t>& points,
+                               const Eigen::Isometry3d& T_camera_model, double& rms) {
+  PointCloud source;
+  for (std::uint32_t q : points) source.positions.push_back(prep.points[q]);
+  if (source.size() < kMinExplained) return T_camera_model;
+  IcpSettings s;
+  s.rejection = RejectionRule::max_distance(kExplainVoxels * model.voxel);
+  s.termination.max_iterations = 30;
+  s.threads = 1;
+  const IcpResult r = icp(source, model.points, model_tree, T_camera_model.inverse(), s);
+  rms = r.rms;
+  return r.T_target_source.inverse();
+}
+
+// Non-maximum suppression (find.hpp, step 5): best score first; each accepted instance claims the
+// scene pixels of its surface, and a later hypothesis is scored on its explained pixels still free.
+std::vector<std::size_t> suppress(const std::vector<Hypothesis>& hyps, const Prepared& prep,
+                                  const PpfModel& model, const KdTree& model_tree,
+                                  const FindSettings& s,
+                                  std::vector<std::vector<std::uint32_t>>& claimed_points) {
+  std::vector<std::size_t> order(hyps.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    return hyps[a].evidence.score(hyps[a].evidence.explained) >
+           hyps[b].evidence.score(hyps[b].evidence.explained);
+  });
+  std::vector<char> claimed(prep.image.depth.size(), 0);
+  std::vector<std::size_t> accepted;
+  for (std::size_t h : order) {
+    const Evidence& ev = hyps[h].evidence;
+    std::size_t free = 0;
+    for (std::uint32_t px : ev.pixels) free += claimed[px] ? 0 : 1;
+    const double needed = std::max<double>(kMinExplained, kMinExplainedShare * ev.visible);
+    if (ev.score(free) < s.min_score || static_cast<double>(free) < needed) continue;
+    if (s.max_instances > 0 && accepted.size() == static_cast<std::size_t>(s.max_instances)) break;
+    accepted.push_back(h);
+    claimed_points.push_back(instance_points(model, model_tree, prep, hyps[h].T_camera_model));
+    for (std::uint32_t px : ev.pixels) claimed[px] = 1;
+    for (std::uint32_t q : claimed_points.back()) {
+      const Eigen::Vector2d uv = prep.image.project(prep.points[q]);
+      const long u = std::lround(uv.x()), v = std::lround(uv.y());
+      if (u >= 0 && v >= 0 && u < prep.image.width && v < prep.image.height)
+        claimed[prep.image.pixel(static_cast<int>(u), static_cast<int>(v))] = 1;
+    }
+  }
+  return accepted;
+}
+
+}  // namespace
+
+FindResult find(const PpfModel& model, const FindScene& scene, const FindSettings& settings) {
+  const auto start = Clock::now();
+  check_settings(settings);
+  if (!model.outward || model.points.size() < 10 || !model.points.has_normals())
+    throw std::invalid_argument(
+        "find: the model description must be built with outward normals (build_find_model)");
+  const int threads = settings.threads;
+  FindResult result;
+  result.model_diameter = model.diameter;
+  result.voxel = model.voxel;
+  result.model_points = model.points.size();
+  result.symmetry = settings.detect_symmetry
+                        ? detect_symmetry(model.points, kSymmetryVoxels * model.voxel, threads)
+                        : settings.symmetry;
+  const Prepared prep = prepare_scene(scene, model, settings);
+  result.image = prep.image;
+  result.depth_dropped = prep.depth_dropped;
+  result.plane_points = prep.plane_points;
+  result.voting_points = prep.voting.size();
+  result.prepare_ms = ms_since(start);
+
+  auto lap = Clock::now();
+  const std::vector<PpfHypothesis> votes =
+      prep.voting.size() >= 10
+          ? ppf_hypotheses(model, prep.voting, result.symmetry, kMaxHypotheses, threads)
+          : std::vector<PpfHypothesis>{};
+  result.hypotheses = votes.size();
+  result.vote_ms = ms_since(lap);
+
+  lap = Clock::now();
+  const KdTree model_tree(model.points.positions, threads);
+  const KdTree& voting_tree = *prep.voting_tree;
+  const Eigen::Vector3d model_centre = centroid(model.points);
+  std::vector<Hypothesis> hyps(votes.size());
+  parallel_for(votes.size(), threads, [&](std::size_t h) {
+    hyps[h].T_camera_model =
+        refine(model, model_tree, prep.voting, voting_tree, model_centre, votes[h].T_scene_model);
+  });
+  result.refine_ms = ms_since(lap);
+
+  lap = Clock::now();
+  parallel_for(hyps.size(), threads, [&](std::size_t h) {
+    hyps[h].evidence = verify(model, prep, hyps[h].T_camera_model);
+  });
+  std::vector<std::vector<std::uint32_t>> points;
+  const std::vector<std::size_t> accepted =
+      suppress(hyps, prep, model, model_tree, settings, points);
+  result.instances.resize(accepted.size());
+  parallel_for(accepted.size(), threads, [&](std::size_t k) {
+    const Hypothesis& h = hyps[accepted[k]];
+    FoundInstance& out = result.instances[k];
+    const Eigen::Isometry3d T =
+        final_refine(model, model_tree, prep, points[k], h.T_camera_model, out.rms);
+    out.T_scene_model = canonical_pose(prep.image.T_cloud_camera * T, result.symmetry);
+    const Evidence ev = verify(model, prep, T);
+    out.score = ev.score(std::min(ev.explained, h.evidence.explained));
+    out.visible_fraction = ev.visible_fraction();
+    out.points = instance_points(model, model_tree, prep, T);
+    out.explained = out.points.size();
+  });
+  std::stable_sort(
+      result.instances.begin(), result.instances.end(),
+      [](const FoundInstance& a, const FoundInstance& b) { return a.score > b.score; });
+  result.verify_ms = ms_since(lap);
+  if (!prep.image.organized)
+    result.warnings.push_back(
+        {"projected_scene",
+         "the scene is not organized: its depth image was made by projecting the points from the "
+         "viewpoint, so the visibility checks hold only if the points were seen from there"});
+  result.total_ms = ms_since(start);
+  return result;
+}
+
+}  // namespace align3d

@@ -1,0 +1,158 @@
+#include "align3d/range_image.hpp"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <string>
+
+#include "align3d/cloud_stats.hpp"
+#include "align3d/error.hpp"
+#include "align3d/kdtree.hpp"
+
+namespace align3d {
+namespace {
+
+constexpr std::size_t kMinPoints = 10;
+constexpr double kMaxFitResidualPx = 0.5;
+constexpr double kMaxSpreadDeg = 150;
+constexpr int kMaxProjectedSide = 4096;  // pixels: bounds the made-up image's memory
+
+RangeImage empty_image(int width, int height) {
+  RangeImage image;
+  image.width = width;
+  image.height = height;
+  const auto n = static_cast<std::size_t>(width) * static_cast<std::size_t>(height);
+  image.depth.assign(n, std::numeric_limits<float>::quiet_NaN());
+  image.point.assign(n, -1);
+  return image;
+}
+
+// Keeps point i at pixel `at` if it is the nearest there.
+void splat(RangeImage& image, std::size_t at, double z, std::size_t i) {
+  if (std::isnan(image.depth[at]) || z < image.depth[at]) {
+    image.depth[at] = static_cast<float>(z);
+    image.point[at] = static_cast<std::int32_t>(i);
+  }
+}
+
+// Least squares of coordinate c = centre + f·ratio over the samples: {f, centre, rms residual}.
+struct LineFit {
+  double f = 0, centre = 0, rms = 0;
+};
+LineFit fit_axis(const std::vector<Eigen::Vector2d>& samples) {  // (ratio, c)
+  Eigen::Matrix2d A = Eigen::Matrix2d::Zero();
+  Eigen::Vector2d b = Eigen::Vector2d::Zero();
+  for (const auto& s : samples) {
+    const Eigen::Vector2d row(s.x(), 1.0);
+    A.noalias() += row * row.transpose();
+    b += row * s.y();
+  }
+  const Eigen::Vector2d x = A.ldlt().solve(b);
+  double sum = 0;
+  for (const auto& s : samples) sum += std::pow(x(0) * s.x() + x(1) - s.y(), 2);
+  return {x(0), x(1), std::sqrt(sum / static_cast<double>(samples.size()))};
+}
+
+}  // namespace
+
+RangeImage organized_range_image(const PointCloud& cloud, const std::vector<std::uint32_t>& pixels,
+                                 int width, int height, const Eigen::Isometry3d& T_cloud_camera) {
+  if (width <= 0 || height <= 0 || pixels.size() != cloud.size())
+    throw DataError("scene", "an organized cloud needs one pixel index per point");
+  const auto n = static_cast<std::size_t>(width) * static_cast<std::size_t>(height);
+  const Eigen::Isometry3d T_camera_cloud = T_cloud_camera.inverse();
+  std::vector<Eigen::Vector2d> us, vs;  // (x/z, u), (y/z, v)
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    if (pixels[i] >= n)
+      throw DataError("scene", "pixel index " + std::to_string(pixels[i]) + " outside the " +
+                                   std::to_string(width) + " x " + std::to_string(height) +
+                                   " image");
+    const Eigen::Vector3d p = T_camera_cloud * cloud.positions[i];
+    if (!(p.z() > 0)) continue;
+    us.emplace_back(p.x() / p.z(), static_cast<double>(pixels[i] % width));
+    vs.emplace_back(p.y() / p.z(), static_cast<double>(pixels[i] / width));
+  }
+  if (us.size() < kMinPoints)
+    throw DataError("scene", std::to_string(us.size()) +
+                                 " points in front of the camera; at least 10 are needed");
+  const LineFit fu = fit_axis(us), fv = fit_axis(vs);
+  RangeImage image = empty_image(width, height);
+  image.T_cloud_camera = T_cloud_camera;
+  image.organized = true;
+  image.fx = fu.f, image.cx = fu.centre, image.fy = fv.f, image.cy = fv.centre;
+  image.fit_rms_px = std::hypot(fu.rms, fv.rms);
+  if (!(image.fx > 0 && image.fy > 0) || !(image.fit_rms_px <= kMaxFitResidualPx))
+    throw DataError("scene", "its points do not fit a pinhole camera at the viewpoint (residual " +
+                                 std::to_string(image.fit_rms_px) +
+                                 " pixels): not a depth image in the camera's frame");
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    const double z = (T_camera_cloud * cloud.positions[i]).z();
+    if (z > 0) splat(image, pixels[i], z, i);
+  }
+  return image;
+}
+
+RangeImage projected_range_image(const PointCloud& cloud, const Eigen::Isometry3d& T_cloud_camera) {
+  const Eigen::Vector3d eye = T_cloud_camera.translation();
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  std::size_t front = 0;
+  for (const auto& p : cloud.positions) {
+    const Eigen::Vector3d d = p - eye;
+    if (d.norm() > 0) mean += d.normalized(), ++front;
+  }
+  if (front < kMinPoints || !(mean.norm() > 0))
+    throw DataError("scene", std::to_string(front) +
+                                 " points apart from the camera position; "
+                                 "at least 10 are needed");
+  const Eigen::Vector3d axis = mean.normalized();
+  // The camera: z along the mean direction, x as close to the given camera's x as possible.
+  Eigen::Vector3d x = T_cloud_camera.linear().col(0);
+  x = (x - x.dot(axis) * axis);
+  if (x.norm() < 1e-6) x = axis.unitOrthogonal();
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear().col(0) = x.normalized();
+  T.linear().col(2) = axis;
+  T.linear().col(1) = axis.cross(x.normalized());
+  T.translation() = eye;
+  const Eigen::Isometry3d T_camera_cloud = T.inverse();
+
+  // Angular extent and resolution: tan of the ray angles; one pixel per median point spacing.
+  double max_tan = 0;
+  std::vector<double> depths;
+  depths.reserve(cloud.size());
+  const double max_tan_allowed = std::tan(kMaxSpreadDeg / 2 * std::numbers::pi / 180);
+  for (const auto& q : cloud.positions) {
+    const Eigen::Vector3d p = T_camera_cloud * q;
+    if (!(p.z() > 0)) continue;
+    max_tan = std::max({max_tan, std::abs(p.x() / p.z()), std::abs(p.y() / p.z())});
+    depths.push_back(p.z());
+  }
+  if (depths.size() < kMinPoints || max_tan > max_tan_allowed)
+    throw DataError("scene", "its points spread over more than " +
+                                 std::to_string(static_cast<int>(kMaxSpreadDeg)) +
+                                 " degrees around the viewpoint: no single camera sees them");
+  std::nth_element(depths.begin(), depths.begin() + depths.size() / 2, depths.end());
+  const double median_depth = depths[depths.size() / 2];
+  const KdTree tree(cloud.positions);
+  const double spacing = point_spacing(cloud, tree);
+  double f = spacing > 0 ? median_depth / spacing : 1.0;
+  f = std::min(f, (kMaxProjectedSide / 2 - 1) / std::max(max_tan, 1e-9));
+  const int side = static_cast<int>(std::ceil(2 * f * max_tan)) + 2;
+  RangeImage image = empty_image(side, side);
+  image.T_cloud_camera = T;
+  image.fx = image.fy = f;
+  image.cx = image.cy = (side - 1) / 2.0;
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    const Eigen::Vector3d p = T_camera_cloud * cloud.positions[i];
+    if (!(p.z() > 0)) continue;
+    const Eigen::Vector2d uv = image.project(p);
+    const long u = std::lround(uv.x()), v = std::lround(uv.y());
+    if (u < 0 || v < 0 || u >= side || v >= side) continue;
+    splat(image, image.pixel(static_cast<int>(u), static_cast<int>(v)), p.z(), i);
+  }
+  return image;
+}
+
+}  // namespace align3d
