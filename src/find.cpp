@@ -27,6 +27,7 @@ double ms_since(Clock::time_point start) {
 // Every distance below is a multiple of the model's voxel (a share of its diameter).
 constexpr std::size_t kMaxHypotheses = 96;
 constexpr double kPlaneShare = 0.2;       // a plane with this share of the scene is the floor
+constexpr int kMaxPlanes = 3;             // planes removed at most (ground, bin floor, a table)
 constexpr double kPlaneVoxels = 0.5;      // RANSAC's inlier distance for the floor
 constexpr double kExplainVoxels = 0.75;   // a scene point this near explains a model point
 constexpr double kFreeSpaceVoxels = 1.5;  // scene this far behind a model point: seen through it
@@ -67,7 +68,7 @@ struct Prepared {
 };
 
 // Removes the dominant plane from `kept` (indices into prep.points) when it holds kPlaneShare.
-void remove_floor(Prepared& prep, std::vector<std::size_t>& kept, double voxel,
+bool remove_floor(Prepared& prep, std::vector<std::size_t>& kept, double voxel,
                   std::uint64_t seed) {
   PointCloud sample;
   for (std::size_t i : kept) sample.positions.push_back(prep.points[i]);
@@ -79,10 +80,10 @@ void remove_floor(Prepared& prep, std::vector<std::size_t>& kept, double voxel,
   try {
     plane = ransac_plane(sample.positions, rs);
   } catch (const DataError&) {
-    return;  // no plane at all: nothing to remove
+    return false;  // no plane at all: nothing to remove
   }
   if (static_cast<double>(plane.inliers.size()) < kPlaneShare * static_cast<double>(sample.size()))
-    return;
+    return false;
   // The band removed: 3 σ of the raw points near the plane (a depth camera's noise is larger
   // than the downsampled sample's), at least RANSAC's distance.
   double sq_sum = 0;
@@ -99,6 +100,7 @@ void remove_floor(Prepared& prep, std::vector<std::size_t>& kept, double voxel,
     prep.plane_points += on ? 1 : 0;
     return on;
   });
+  return true;
 }
 
 Prepared prepare_scene(const FindScene& scene, const PpfModel& model, const FindSettings& s) {
@@ -130,7 +132,10 @@ Prepared prepare_scene(const FindScene& scene, const PpfModel& model, const Find
                                  ") is larger than the whole scene (extent " +
                                  number(box.diagonal().norm()) +
                                  "): a model in other units than the scene, or the files swapped?");
-  if (s.remove_plane) remove_floor(prep, kept, model.voxel, s.seed);
+  // The dominant plane, and again while one holds kPlaneShare of what is left: a camera above a
+  // bin sees the ground around it and the bin's floor, 12 mm apart.
+  for (int round = 0; s.remove_plane && round < kMaxPlanes; ++round)
+    if (!remove_floor(prep, kept, model.voxel, s.seed)) break;
   PointCloud rest;
   rest.positions.reserve(kept.size());
   for (std::size_t i : kept) rest.positions.push_back(prep.points[i]);
