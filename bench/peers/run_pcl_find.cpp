@@ -7,10 +7,10 @@
 //                 --model-keys --hough-bin --normal-radius (in voxels) --match --hough-threshold
 //                 --verify 0|1 --occlusion 0|1]
 //
-// Prints ONE JSON line: system, method, instances [{transformation (4x4 row-major, scene ≈ T·model),
-// score, ...}] best score first, model_ms (the model's preparation), time_ms (the detection: the
-// scene in memory to the poses), cpu_ms, capped (the budget stopped the search early),
-// plane_points, scene_points, peak_rss_kb. The files are read before any clock starts.
+// Prints ONE JSON line: system, method, instances [{transformation (4x4 row-major, scene ≈
+// T·model), score, ...}] best score first, model_ms (the model's preparation), time_ms (the
+// detection: the scene in memory to the poses), cpu_ms, capped (the budget stopped the search
+// early), plane_points, scene_points, peak_rss_kb. The files are read before any clock starts.
 //
 // Shared by both methods (the settings compare_find.py's docstring lists for every peer):
 //   model   the STL sampled evenly by area (20000 points, std::mt19937 seed 1, the triangles'
@@ -65,7 +65,6 @@
 #include <pcl/point_types.h>
 #include <pcl/recognition/cg/geometric_consistency.h>
 #include <pcl/recognition/cg/hough_3d.h>
-#include <pcl/recognition/impl/cg/hough_3d.hpp>  // not instantiated for PointNormal in the library
 #include <pcl/recognition/hv/hv_go.h>
 #include <pcl/registration/icp.h>
 #include <pcl/registration/ppf_registration.h>
@@ -79,6 +78,7 @@
 #include <cstdint>
 #include <cstring>
 #include <fstream>
+#include <pcl/recognition/impl/cg/hough_3d.hpp>  // not instantiated for PointNormal in the library
 #include <random>
 #include <string>
 #include <vector>
@@ -108,7 +108,7 @@ struct Args {
   double match = 0.5, hough_threshold = 3;  // squared SHOT distance; votes (hough or gc)
   bool verify = true, occlusion = true;
   std::string grouping = "gc";  // GeometricConsistencyGrouping, or "hough": Hough3DGrouping
-  bool verbose = false;           // stage counts and times on stderr
+  bool verbose = false;         // stage counts and times on stderr
   Clock::time_point start = Clock::now();
 };
 
@@ -148,10 +148,9 @@ CloudN::Ptr sample_mesh(const std::vector<Triangle>& tris, int count) {
   CloudN::Ptr out(new CloudN);
   for (int k = 0; k < count; ++k) {
     const double pick = u(rng) * total;
-    const auto i = static_cast<std::size_t>(
-        std::min<std::ptrdiff_t>(std::lower_bound(cumulative.begin(), cumulative.end(), pick) -
-                                     cumulative.begin(),
-                                 static_cast<std::ptrdiff_t>(tris.size()) - 1));
+    const auto i = static_cast<std::size_t>(std::min<std::ptrdiff_t>(
+        std::lower_bound(cumulative.begin(), cumulative.end(), pick) - cumulative.begin(),
+        static_cast<std::ptrdiff_t>(tris.size()) - 1));
     double r1 = std::sqrt(u(rng)), r2 = u(rng);
     const Triangle& t = tris[i];
     const Eigen::Vector3f p = static_cast<float>(1 - r1) * t.a +
@@ -437,7 +436,8 @@ Run run_cg(const Args& a, const Model& m, const Cloud::Ptr& scene_full,
     hough.recognize(poses, clustered);
   }
   if (a.verbose)
-    std::fprintf(stderr, "cg: %zu scene points, %zu keypoints, %zu correspondences, %zu poses (%.0f ms)\n",
+    std::fprintf(stderr,
+                 "cg: %zu scene points, %zu keypoints, %zu correspondences, %zu poses (%.0f ms)\n",
                  scene->size(), scene_keys->size(), corrs->size(), poses.size(), ms_since(a.start));
 
   // Refine every hypothesis, then verify them together.
@@ -482,8 +482,9 @@ Run run_cg(const Args& a, const Model& m, const Cloud::Ptr& scene_full,
   }
   if (a.verbose) {
     for (std::size_t h = 0; h < hyps.size(); ++h)
-      std::fprintf(stderr, "  hypothesis %zu: %zu correspondences, fitness %.3f -> %.3f, kept %d\n", h,
-                   hyps[h].votes, hyps[h].fitness_before, hyps[h].score, static_cast<int>(keep[h]));
+      std::fprintf(stderr, "  hypothesis %zu: %zu correspondences, fitness %.3f -> %.3f, kept %d\n",
+                   h, hyps[h].votes, hyps[h].fitness_before, hyps[h].score,
+                   static_cast<int>(keep[h]));
     std::fprintf(stderr, "cg: verified (%.0f ms)\n", ms_since(a.start));
   }
   std::vector<std::size_t> order(hyps.size());
@@ -502,8 +503,7 @@ Run run_cg(const Args& a, const Model& m, const Cloud::Ptr& scene_full,
     if (!keep[i] || hyps[i].score < a.min_fitness) continue;
     const Eigen::Vector4f c = hyps[i].T * centre;
     bool duplicate = false;
-    for (const Found& f : run.found)
-      duplicate |= ((f.T * centre) - c).norm() < 0.2 * diameter;
+    for (const Found& f : run.found) duplicate |= ((f.T * centre) - c).norm() < 0.2 * diameter;
     if (!duplicate) run.found.push_back(hyps[i]);
   }
   return run;
@@ -587,7 +587,8 @@ int main(int argc, char** argv) {
     pcl::console::setVerbosityLevel(pcl::console::L_ERROR);
     const std::vector<Triangle> tris = read_stl(a.model);
     Cloud::Ptr scene(new Cloud);
-    if (pcl::io::loadPCDFile(a.scene, *scene) < 0) throw std::runtime_error(a.scene + ": unreadable");
+    if (pcl::io::loadPCDFile(a.scene, *scene) < 0)
+      throw std::runtime_error(a.scene + ": unreadable");
     {
       Cloud::Ptr finite(new Cloud);
       pcl::Indices unused;
