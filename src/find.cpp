@@ -153,7 +153,6 @@ Prepared prepare_scene(const FindScene& scene, const PpfModel& model, const Find
 struct Evidence {
   std::size_t visible = 0, explained = 0, seen_through = 0, occluded = 0, missing = 0;
   std::vector<std::uint32_t> pixels;  // where the explained points were matched
-  double sq_sum = 0;                  // of the explained distances
   double continuation = 0;            // outline_continuation
   double score(std::size_t explained_free) const {
     const double usable = std::max<double>(1, static_cast<double>(visible - missing));
@@ -313,7 +312,6 @@ Evidence verify(const PpfModel& model, const Prepared& prep,
       }
     if (best <= explain) {
       ++ev.explained;
-      ev.sq_sum += best * best;
       ev.pixels.push_back(static_cast<std::uint32_t>(best_pixel));
     } else if (!std::isfinite(nearest_z)) {
       ++ev.missing;

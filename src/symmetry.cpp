@@ -105,9 +105,7 @@ Symmetry detect_symmetry(const PointCloud& model, double tolerance, int threads)
   if (model.size() < 3) return {};
   const KdTree tree(model.positions, threads);
   const double near = 1.5 * point_spacing(model, tree);
-  Eigen::Vector3d c = Eigen::Vector3d::Zero();
-  for (const auto& p : model.positions) c += p;
-  c /= static_cast<double>(model.size());
+  const Eigen::Vector3d c = centroid(model);
   Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
   for (const auto& p : model.positions) cov.noalias() += (p - c) * (p - c).transpose();
   const Eigen::Matrix3d axes = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(cov).eigenvectors();
@@ -155,9 +153,7 @@ Symmetry parse_symmetry(const std::string& text, const PointCloud& model) {
     }
     if (order < 2 || order > kMaxOrder) throw bad();
   }
-  Eigen::Vector3d c = Eigen::Vector3d::Zero();
-  for (const auto& p : model.positions) c += p;
-  if (!model.empty()) c /= static_cast<double>(model.size());
+  const Eigen::Vector3d c = model.empty() ? Eigen::Vector3d::Zero() : centroid(model);
   return about(Eigen::Vector3d::Unit(text[0] - 'x'), c, order);
 }
 

@@ -7,10 +7,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <cstring>
 #include <filesystem>
 #include <fstream>
-#include <functional>
 #include <limits>
 #include <numbers>
 #include <random>
@@ -19,6 +17,7 @@
 #include <vector>
 
 #include "align3d/error.hpp"
+#include "png_image.hpp"
 #include "test_util.hpp"
 
 namespace align3d::report {
@@ -47,45 +46,7 @@ class FigureTest : public ::testing::Test {
   const fs::path dir_ = temp_.path();
 };
 
-// A decoded PNG with pixel access; the figures are opaque, so premultiplication does not matter.
-class Image {
- public:
-  explicit Image(const fs::path& path)
-      : surface_(cairo_image_surface_create_from_png(path.c_str())) {}
-  ~Image() { cairo_surface_destroy(surface_); }
-  Image(const Image&) = delete;
-  Image& operator=(const Image&) = delete;
-
-  bool ok() const { return cairo_surface_status(surface_) == CAIRO_STATUS_SUCCESS; }
-  int width() const { return cairo_image_surface_get_width(surface_); }
-  int height() const { return cairo_image_surface_get_height(surface_); }
-
-  struct Rgb8 {
-    int r, g, b;
-  };
-  Rgb8 at(int x, int y) const {
-    const unsigned char* row =
-        cairo_image_surface_get_data(surface_) + y * cairo_image_surface_get_stride(surface_);
-    std::uint32_t v;
-    std::memcpy(&v, row + 4 * x, 4);
-    return {int((v >> 16) & 0xff), int((v >> 8) & 0xff), int(v & 0xff)};
-  }
-
-  // Pixels in [x0, x1) x [y0, y1) satisfying pred.
-  int count(int x0, int y0, int x1, int y1, const std::function<bool(Rgb8)>& pred) const {
-    int n = 0;
-    for (int y = y0; y < y1; ++y) {
-      for (int x = x0; x < x1; ++x) n += pred(at(x, y)) ? 1 : 0;
-    }
-    return n;
-  }
-  int count(const std::function<bool(Rgb8)>& pred) const {
-    return count(0, 0, width(), height(), pred);
-  }
-
- private:
-  cairo_surface_t* surface_;
-};
+using Image = test::PngImage;
 
 bool is_red(Image::Rgb8 c) { return c.r > 200 && c.g < 90 && c.b < 90; }
 bool is_blue(Image::Rgb8 c) { return c.b > 200 && c.r < 90 && c.g < 90; }

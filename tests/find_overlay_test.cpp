@@ -3,7 +3,6 @@
 // return. The PNG is read back with cairo, the PLY with the cloud reader and byte by byte.
 #include "align3d/report/find_overlay.hpp"
 
-#include <cairo.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -18,6 +17,7 @@
 
 #include "align3d/error.hpp"
 #include "align3d/io/point_cloud_io.hpp"
+#include "png_image.hpp"
 #include "test_util.hpp"
 
 namespace align3d::report {
@@ -72,28 +72,20 @@ Fixture make_fixture() {
   return f;
 }
 
-// A decoded PNG with pixel access (opaque, so premultiplication does not matter).
+// A pixel of a PNG read back (png_image.hpp), as a vector to measure colour distances.
 class Image {
  public:
-  explicit Image(const fs::path& path)
-      : surface_(cairo_image_surface_create_from_png(path.c_str())) {}
-  ~Image() { cairo_surface_destroy(surface_); }
-  Image(const Image&) = delete;
-  Image& operator=(const Image&) = delete;
-
-  bool ok() const { return cairo_surface_status(surface_) == CAIRO_STATUS_SUCCESS; }
-  int width() const { return cairo_image_surface_get_width(surface_); }
-  int height() const { return cairo_image_surface_get_height(surface_); }
+  explicit Image(const fs::path& path) : png_(path) {}
+  bool ok() const { return png_.ok(); }
+  int width() const { return png_.width(); }
+  int height() const { return png_.height(); }
   Eigen::Vector3d at(int x, int y) const {
-    const unsigned char* row =
-        cairo_image_surface_get_data(surface_) + y * cairo_image_surface_get_stride(surface_);
-    std::uint32_t v;
-    std::memcpy(&v, row + 4 * x, 4);
-    return {double((v >> 16) & 0xff), double((v >> 8) & 0xff), double(v & 0xff)};
+    const test::PngImage::Rgb8 c = png_.at(x, y);
+    return {double(c.r), double(c.g), double(c.b)};
   }
 
  private:
-  cairo_surface_t* surface_;
+  test::PngImage png_;
 };
 
 Eigen::Vector3d palette(int rank) {

@@ -6,22 +6,26 @@
 //      pair feature table built from them (coarse/ppf.hpp, PpfModel; prepared once, reusable from
 //      `align3d ppf-model`). Its symmetry is detected from those points (symmetry.hpp) or given.
 //   2. The scene, in the camera's frame (its viewpoint): points outside the depth range are
-//      dropped and the dominant plane (the bin floor) removed for voting, not for verification.
-//      The rest is downsampled with the model's voxel; normals are turned toward the camera, the
-//      side from which the outward normals of the visible model surface point too.
+//      dropped, and the dominant plane removed for voting (not for verification), again while
+//      one holds a fifth of what is left (a camera above a bin sees the ground and the bin's
+//      floor). The rest is downsampled with the model's voxel; normals are turned toward the
+//      camera, the side from which the outward normals of the visible model surface point too.
 //   3. Hypotheses: PPF voting (coarse/ppf.hpp, ppf_hypotheses) with neighbour-bin lookups, one
 //      vote per model-scene pair and several peaks per scene reference point, clustered poses,
-//      each refined by ICP against the scene points near it (icp/icp.hpp).
+//      each refined by ICP of the scene points near it onto the model (icp/icp.hpp).
 //   4. Verification against the depth image (range_image.hpp): the model points the camera would
 //      see at the pose (facing it, not hidden behind the part itself) are compared with the scene
-//      along their pixel's ray. Explained: the scene surface within a distance of the model's;
-//      seen through: the scene lies farther, so the hypothesised part would hide it (free-space
-//      violation); occluded: something lies in front. score = (explained − seen through) /
-//      (visible − missing pixels); visible_fraction = 1 − occluded / visible.
+//      at their pixels. Explained: a scene point within a distance; seen through: the scene lies
+//      farther, so the hypothesised part would hide it (free-space violation); occluded:
+//      something lies in front; missing: no return. Outline continuation: the share of the ring
+//      just outside the part's outline where the scene surface goes on without a depth edge (a
+//      face fitted into a box's top, the floor or a wall). score = (explained − seen through) /
+//      (visible − missing) − continuation; visible_fraction = 1 − occluded / (visible − missing).
 //   5. Non-maximum suppression, best score first: each accepted instance claims the scene pixels
-//      it explains; a later hypothesis is scored again on the pixels still free and dropped below
-//      min_score. So one part is reported once, whatever its symmetry. Poses of a symmetric part
-//      are reported in a canonical form (symmetry.hpp).
+//      of its surface; a later hypothesis is scored again on its explained pixels still free and
+//      dropped below min_score. So one part is reported once, whatever its symmetry. Each
+//      accepted pose gets a last ICP on its scene points; poses of a symmetric part are reported
+//      in a canonical form (symmetry.hpp).
 //
 // Units: every distance default is a share of the model's diameter, so the same data in mm or m
 // give the same instances. The same inputs and settings give the same result at any thread count.
@@ -92,7 +96,7 @@ struct FoundInstance {
   Eigen::Isometry3d T_scene_model;  // maps MODEL coordinates into the SCENE's frame
   double score = 0;
   double visible_fraction = 0;
-  double rms = 0;                     // of the explained points' distances along their rays
+  double rms = 0;                     // of the last ICP's pairs (its scene points to the model)
   std::size_t explained = 0;          // scene points it explains
   std::vector<std::uint32_t> points;  // those points (indices into FindScene::cloud), ascending
 };

@@ -2,15 +2,17 @@
 // bushing) looks the same after any turn about its axis (continuous), a square plate after a
 // quarter turn (discrete, 4-fold). `align3d find` reports each instance once, in a canonical pose.
 //
-// Detection: the model's points (with its principal axes through its centroid as candidate
-// axes) are turned about each axis by test angles; the part is symmetric about an axis when every
-// turned point lies within `tolerance` of the model's surface on average (the mean distance to
-// the nearest model point, ADD-S of the turn). Continuous: seven unrelated angles all pass; else
-// discrete of order n (the largest n in 2..12 whose turn by 360°/n passes). Only the first axis
-// found is reported (a part symmetric about several axes gets the one with the highest order).
+// Detection: the model's points (with normals) are turned about candidate axes, its principal
+// axes through its centroid, each first refined by aligning the model turned a quarter turn back
+// onto itself (ICP; kept only when that turn fits). The part is symmetric about an axis when the
+// turned points lie within `tolerance` of the model's surface on average (the distance to the
+// tangent plane of the nearest model point, or to that point when it is farther than 1.5 point
+// spacings). Continuous: seven unrelated angles all pass; else discrete of order n (the largest n
+// in 2..12 whose turn by 360°/n passes). One axis is reported: the first continuous one, else the
+// one of highest order.
 //
 // Canonical pose: of the equivalent poses T·R(θ) (R a turn about the axis), the one whose
-// reference direction (the model axis perpendicular to the symmetry axis, `reference`) turns
+// reference direction (`reference`, a fixed unit vector normal to the symmetry axis) turns
 // closest to the scene frame's +x axis projected onto the plane normal to the mapped axis; for
 // discrete symmetry θ is a multiple of 360°/n. So two poses of one part differ only by what the
 // symmetry cannot tell.

@@ -1,7 +1,5 @@
 // align3d find MODEL SCENE: find() (find.hpp) from the command line (README, "Pick parts from a
 // bin"; the report's keys: docs/report.md, "find").
-#include <chrono>
-#include <cmath>
 #include <cstdio>
 #include <iomanip>
 
@@ -131,7 +129,8 @@ Command add_find(CLI::App& app, Streams io) {
       ->capture_default_str();
   sub->add_option("--min-score", s.min_score,
                   "Accept instances scoring at least S: the share of the part's visible surface "
-                  "the scene explains, less what is seen through it")
+                  "the scene explains, less what is seen through it and the share of its outline "
+                  "the scene's surface continues past")
       ->check(CLI::Range(1e-6, 1.0))
       ->capture_default_str();
   sub->add_option("--symmetry", o->symmetry,
