@@ -147,8 +147,12 @@ def convert(
         dict(encoding=encoding, sample=sample, chord_tolerance=chord_tolerance))
 
 
-def ppf_model(model: PathLike, out: PathLike, *, voxel: Optional[float] = None) -> None:
-    """Builds the point-pair-feature description of the cloud file ``model`` and saves it to
-    ``out`` (``align3d ppf-model``), for ``register(scan, model, ppf_model=out)`` on many scans.
-    ``voxel`` in data units (default 0: the model's extent / 50, as register's global stage)."""
-    run("ppf-model", [model, out], dict(voxel=voxel))
+def ppf_model(model: PathLike, out: PathLike, *, voxel: Optional[float] = None,
+              find: bool = False, voxel_fraction: Optional[float] = None) -> None:
+    """Builds the point-pair-feature description of the cloud or mesh file ``model`` and saves it
+    to ``out`` (``align3d ppf-model``), for ``register(scan, model, ppf_model=out)`` on many scans.
+    ``voxel`` in data units (default 0: the model's extent / 50, as register's global stage).
+    With ``find``, the description :func:`find` takes instead (outward normals, sampled with
+    ``voxel_fraction`` of the model's diameter)."""
+    run("ppf-model", [model, out], dict(voxel=voxel, voxel_fraction=voxel_fraction),
+        dict(find=find))

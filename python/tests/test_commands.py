@@ -96,3 +96,20 @@ def test_demo_reproduces_the_chapter(tmp_path):
     assert len(results["icp"]) == 5 and len(results["rectify"]) >= 1
     # The defaults (the fourth experiment) land on the scene's ground truth.
     assert results["icp"][3]["rotation_error_deg"] < 0.1
+
+
+def test_find_with_a_saved_model_gives_the_same_instances(tmp_path):
+    # ppf_model(find=True) saves what find() builds from the mesh: the same instances either way,
+    # each within the scene's truth (the generator's poses).
+    truth = align3d.synth(tmp_path / "bin", scene="bin", instances=3, distractors=1, seed=4)
+    stl, pcd = tmp_path / "bin" / "model.stl", tmp_path / "bin" / "scene.pcd"
+    align3d.ppf_model(stl, tmp_path / "part.ppf", find=True)
+    from_mesh = align3d.find(stl, pcd, threads=2)
+    from_file = align3d.find(tmp_path / "part.ppf", pcd, threads=2)
+    assert len(from_mesh.instances) >= 2
+    assert [i["score"] for i in from_mesh.instances] == [i["score"] for i in from_file.instances]
+    centres = [np.array(t["transformation"])[:3, 3] for t in truth["instances"]]
+    for found in from_file.instances:
+        assert min(np.linalg.norm(found["transformation"][:3, 3] - c) for c in centres) < 5.0
+    with pytest.raises(align3d.SettingsError, match=r"--voxel"):
+        align3d.ppf_model(stl, tmp_path / "x.ppf", find=True, voxel=3.0)

@@ -4,6 +4,7 @@
 
 #include "align3d/coarse/ppf.hpp"
 #include "align3d/error.hpp"
+#include "align3d/find.hpp"
 #include "align3d/icp/refine.hpp"
 #include "common.hpp"
 
@@ -13,7 +14,20 @@ namespace {
 struct PpfModelOptions {
   std::string model, out;
   double voxel = GlobalSettings{}.voxel;
+  bool find = false;
+  double voxel_fraction = kFindVoxelFraction;
 };
+
+// The description `align3d find` uses (find.hpp: build_find_model, outward normals).
+PpfModel find_description(const PpfModelOptions& o, std::ostream& err) {
+  try {
+    if (io::is_mesh_file(o.model))
+      return build_find_model(load_mesh(o.model, err), o.voxel_fraction);
+    return build_find_model(load_cloud(o.model, err), o.voxel_fraction);
+  } catch (const DataError& e) {
+    throw DataError(o.model, e.problem());
+  }
+}
 
 }  // namespace
 
@@ -22,7 +36,8 @@ Command add_ppf_model(CLI::App& app, Streams io) {
   CLI::App* sub = app.add_subcommand(
       "ppf-model",
       "Build the point-pair-feature description of MODEL and save it to OUT, for\n"
-      "`align3d register SCAN MODEL --ppf-model OUT` on many scans (MODEL is their target).");
+      "`align3d register SCAN MODEL --ppf-model OUT` on many scans (MODEL is their target); with\n"
+      "--find, for `align3d find OUT SCENE` on many scenes (MODEL is the part).");
   sub->add_option("MODEL", o->model,
                   "Model: a cloud, or a mesh (sampled evenly by area, as registration samples a "
                   "mesh target); the target of later registrations")
@@ -33,7 +48,25 @@ Command add_ppf_model(CLI::App& app, Streams io) {
                   "percentiles), as register's global stage uses")
       ->check(finite_non_negative())
       ->capture_default_str();
+  sub->add_flag("--find", o->find,
+                "Describe MODEL for `align3d find` instead: outward normals (a mesh's faces, or "
+                "the cloud's own), sampled with --voxel-fraction of its diameter");
+  sub->add_option("--voxel-fraction", o->voxel_fraction,
+                  "With --find: the sampling step as a share of the model's diameter")
+      ->check(CLI::Range(0.005, 0.25))
+      ->capture_default_str();
   return {sub, [o, io] {
+            if (o->find) {
+              if (o->voxel != 0)
+                throw UsageError(
+                    "--voxel is for registration models; with --find the step is "
+                    "--voxel-fraction of the model's diameter");
+              const PpfModel description = find_description(*o, io.err);
+              save_ppf_model(o->out, description);
+              io.out << "wrote " << o->out << " (PPF model of " << o->model << " for find, voxel "
+                     << description.voxel << ", " << description.points.size() << " points)\n";
+              return 0;
+            }
             // A mesh is described by the sample registration uses for its global stage.
             const PointCloud model =
                 io::is_mesh_file(o->model)
