@@ -31,6 +31,9 @@ constexpr int kMaxPlanes = 3;             // planes removed at most (ground, bin
 constexpr double kPlaneVoxels = 0.5;      // RANSAC's inlier distance for the floor
 constexpr double kExplainVoxels = 0.75;   // a scene point this near explains a model point
 constexpr double kFreeSpaceVoxels = 1.5;  // scene this far behind a model point: seen through it
+constexpr double kRefineNormalDeg = 45;   // scene and model normals of a refined pair
+constexpr double kVerifyNormalDeg = 45;   // scene and model normals of an explained point
+constexpr double kMinVisible = 0.3;       // a hypothesis less visible than this scores −1
 constexpr double kMinFacing = 0.26;       // cos 75°: steeper surfaces return nothing (sensors)
 constexpr double kSymmetryVoxels = 0.1;   // mean misfit of a turn that counts as a symmetry
 // The disc each model point covers in its view: wide enough to close the gaps between the points
@@ -155,8 +158,9 @@ struct Evidence {
   std::vector<std::uint32_t> pixels;  // where the explained points were matched
   double continuation = 0;            // outline_continuation
   double score(std::size_t explained_free) const {
-    const double usable = std::max<double>(1, static_cast<double>(visible - missing));
-    return (static_cast<double>(explained_free) - static_cast<double>(seen_through)) / usable -
+    const double seen = std::max<double>(1, static_cast<double>(visible - missing - occluded));
+    if (visible_fraction() < kMinVisible) return -1;
+    return (static_cast<double>(explained_free) - static_cast<double>(seen_through)) / seen -
            continuation;
   }
   double visible_fraction() const {
@@ -245,7 +249,8 @@ bool continues(const Prepared& prep, const Eigen::Vector3d& a, const Eigen::Vect
 // continues, without a depth edge (a step of more than `explain`), the scene surface at the
 // nearest outline point's pixel: a real part ends at its outline, a face matched into a larger
 // surface (a box's top, the floor) does not.
-double outline_continuation(ModelView& view, const Prepared& prep, double explain, int margin) {
+double outline_continuation(ModelView& view, const std::vector<Eigen::Vector3d>& p,
+                            const Prepared& prep, double explain, int margin) {
   const RangeImage& image = prep.image;
   std::size_t valid = 0, continuing = 0;
   std::vector<std::int32_t> next;
@@ -264,6 +269,8 @@ double outline_continuation(ModelView& view, const Prepared& prep, double explai
             const auto m = static_cast<std::size_t>(next[view.at(u, v)]);
             const std::int32_t o = image.point[image.pixel(view.uv[m].x(), view.uv[m].y())];
             if (o < 0 || !prep.in_range[static_cast<std::size_t>(o)]) break;
+            // An owner the scene does not explain (occluded by a neighbour): no evidence here.
+            if ((prep.points[static_cast<std::size_t>(o)] - p[m]).norm() > explain) break;
             ++valid;
             continuing += continues(prep, prep.points[static_cast<std::size_t>(o)],
                                     prep.points[static_cast<std::size_t>(q)], explain)
@@ -275,6 +282,16 @@ double outline_continuation(ModelView& view, const Prepared& prep, double explai
     view.owner.swap(next);
   }
   return valid ? static_cast<double>(continuing) / static_cast<double>(valid) : 0.0;
+}
+
+// Whether the scene's surface at scene point s faces as the model's normal n does (within
+// kVerifyNormalDeg; the normal of the voting point nearest s, within a voxel). A surface passing
+// near the model at another angle (a neighbour's side, a box under a face) explains nothing.
+bool agrees(const Prepared& prep, const Eigen::Vector3d& s, const Eigen::Vector3d& n,
+            double voxel) {
+  Neighbor nn;
+  if (!prep.voting_tree->nearest(s, nn, voxel * voxel)) return true;
+  return prep.voting.normals[nn.index].dot(n) >= std::cos(deg_to_rad(kVerifyNormalDeg));
 }
 
 Evidence verify(const PpfModel& model, const Prepared& prep,
@@ -310,7 +327,8 @@ Evidence verify(const PpfModel& model, const Prepared& prep,
         const double d = (s - p[i]).norm();
         if (d < best) best = d, best_pixel = at;
       }
-    if (best <= explain) {
+    if (best <= explain &&
+        agrees(prep, prep.points[static_cast<std::size_t>(image.point[best_pixel])], n[i], voxel)) {
       ++ev.explained;
       ev.pixels.push_back(static_cast<std::uint32_t>(best_pixel));
     } else if (!std::isfinite(nearest_z)) {
@@ -321,25 +339,37 @@ Evidence verify(const PpfModel& model, const Prepared& prep,
       ++ev.occluded;
     }
   }
-  if (!view.visible.empty()) ev.continuation = outline_continuation(view, prep, explain, margin);
+  if (!view.visible.empty()) ev.continuation = outline_continuation(view, p, prep, explain, margin);
   return ev;
 }
 
 // ICP of the scene's voting points near the hypothesis onto the model (point-to-plane on the
-// model's normals): two rounds, pairs within 2 and then 1 voxel.
+// model's normals): two rounds, pairs within 2 and then 1 voxel. Each round keeps only the scene
+// points on the model's surface as the current pose places it: near a model point whose normal
+// agrees with theirs (within kRefineNormalDeg). A neighbouring part touching this one, or the
+// back of the model, otherwise pulls the pose off a true instance.
 Eigen::Isometry3d refine(const PpfModel& model, const KdTree& model_tree, const PointCloud& voting,
                          const KdTree& voting_tree, const Eigen::Vector3d& model_centre,
                          const Eigen::Isometry3d& T_camera_model) {
   thread_local std::vector<Neighbor> nb;
   const double reach = model.diameter / 2 + 2 * model.voxel;
   voting_tree.radius(T_camera_model * model_centre, reach * reach, nb);
-  PointCloud crop;
-  for (const Neighbor& m : nb) crop.positions.push_back(voting.positions[m.index]);
-  if (crop.size() < kMinExplained) return T_camera_model;
+  const double min_cos = std::cos(deg_to_rad(kRefineNormalDeg));
   Eigen::Isometry3d T_model_camera = T_camera_model.inverse();
   for (const double voxels : {2.0, 1.0}) {
+    const double bound = voxels * model.voxel;
+    PointCloud crop;
+    for (const Neighbor& m : nb) {
+      Neighbor nn;
+      const Eigen::Vector3d x = T_model_camera * voting.positions[m.index];
+      if (model_tree.nearest(x, nn, bound * bound) &&
+          model.points.normals[nn.index].dot(T_model_camera.linear() * voting.normals[m.index]) >=
+              min_cos)
+        crop.positions.push_back(voting.positions[m.index]);
+    }
+    if (crop.size() < kMinExplained) break;
     IcpSettings s;
-    s.rejection = RejectionRule::max_distance(voxels * model.voxel);
+    s.rejection = RejectionRule::max_distance(bound);
     s.termination.max_iterations = 30;
     s.threads = 1;  // the hypotheses run in parallel
     T_model_camera = icp(crop, model.points, model_tree, T_model_camera, s).T_target_source;

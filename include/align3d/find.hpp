@@ -12,15 +12,20 @@
 //      camera, the side from which the outward normals of the visible model surface point too.
 //   3. Hypotheses: PPF voting (coarse/ppf.hpp, ppf_hypotheses) with neighbour-bin lookups, one
 //      vote per model-scene pair and several peaks per scene reference point, clustered poses,
-//      each refined by ICP of the scene points near it onto the model (icp/icp.hpp).
+//      each refined by ICP onto the model (icp/icp.hpp) of the scene points on its surface (near
+//      a model point whose normal agrees with theirs; a touching neighbour does not pull it).
 //   4. Verification against the depth image (range_image.hpp): the model points the camera would
 //      see at the pose (facing it, not hidden behind the part itself) are compared with the scene
 //      at their pixels. Explained: a scene point within a distance; seen through: the scene lies
 //      farther, so the hypothesised part would hide it (free-space violation); occluded:
 //      something lies in front; missing: no return. Outline continuation: the share of the ring
 //      just outside the part's outline where the scene surface goes on without a depth edge (a
-//      face fitted into a box's top, the floor or a wall). score = (explained − seen through) /
-//      (visible − missing) − continuation; visible_fraction = 1 − occluded / (visible − missing).
+//      face fitted into a box's top, the floor or a wall). Explained needs the scene's normal
+//      there within 45° of the model's, and the outline counts only where the part is explained
+//      (a neighbour lying on it is no evidence). score = (explained − seen through) / (visible −
+//      missing − occluded) − continuation: what a part partly under its neighbours shows is judged
+//      as a whole part's; visible_fraction = 1 − occluded / (visible − missing), and a pose
+//      less than 30 % visible scores −1.
 //   5. Non-maximum suppression, best score first: each accepted instance claims the scene pixels
 //      of its surface; a later hypothesis is scored again on its explained pixels still free and
 //      dropped below min_score. So one part is reported once, whatever its symmetry. Each
@@ -51,7 +56,7 @@ namespace align3d {
 
 // Defaults, declared once (CLI, Python and docs read them from here).
 inline constexpr double kFindVoxelFraction = 0.05;  // model voxel / model diameter
-inline constexpr double kFindMinScore = 0.4;
+inline constexpr double kFindMinScore = 0.6;
 inline constexpr std::size_t kFindModelSamples = 20000;  // area-uniform samples of a mesh model
 
 struct FindSettings {

@@ -128,9 +128,10 @@ Command add_find(CLI::App& app, Streams io) {
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   sub->add_option("--min-score", s.min_score,
-                  "Accept instances scoring at least S: the share of the part's visible surface "
-                  "the scene explains, less what is seen through it and the share of its outline "
-                  "the scene's surface continues past")
+                  "Accept instances scoring at least S: the share of the part's unoccluded "
+                  "visible surface the scene explains (normals agreeing), less what is seen "
+                  "through it and the share of its outline the scene's surface continues past; "
+                  "parts less than 30 % visible are not reported")
       ->check(CLI::Range(1e-6, 1.0))
       ->capture_default_str();
   sub->add_option("--symmetry", o->symmetry,
