@@ -289,9 +289,10 @@ double outline_continuation(ModelView& view, const std::vector<Eigen::Vector3d>&
 // near the model at another angle (a neighbour's side, a box under a face) explains nothing.
 bool agrees(const Prepared& prep, const Eigen::Vector3d& s, const Eigen::Vector3d& n,
             double voxel) {
+  static const double min_cos = std::cos(deg_to_rad(kVerifyNormalDeg));
   Neighbor nn;
   if (!prep.voting_tree->nearest(s, nn, voxel * voxel)) return true;
-  return prep.voting.normals[nn.index].dot(n) >= std::cos(deg_to_rad(kVerifyNormalDeg));
+  return prep.voting.normals[nn.index].dot(n) >= min_cos;
 }
 
 Evidence verify(const PpfModel& model, const Prepared& prep,

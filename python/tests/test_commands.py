@@ -99,8 +99,7 @@ def test_demo_reproduces_the_chapter(tmp_path):
 
 
 def test_find_with_a_saved_model_gives_the_same_instances(tmp_path):
-    # ppf_model(find=True) saves what find() builds from the mesh: the same instances either way,
-    # each within the scene's truth (the generator's poses).
+    # ppf_model(find=True) saves what find() builds from the mesh: the same instances either way.
     truth = align3d.synth(tmp_path / "bin", scene="bin", instances=3, distractors=1, seed=4)
     stl, pcd = tmp_path / "bin" / "model.stl", tmp_path / "bin" / "scene.pcd"
     align3d.ppf_model(stl, tmp_path / "part.ppf", find=True)
