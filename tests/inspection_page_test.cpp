@@ -115,7 +115,29 @@ std::vector<std::string> entries(const fs::path& dir) {
   return names;
 }
 
-// Scratch folders of the page writer left in the system's temporary folder.
+// TMPDIR pointed at a folder of the test's own while it lives, so the page writer's scratch
+// folders are counted there: in the shared temporary folder, another test writing a page at the
+// same time (ctest -j) changed the count.
+class ScopedTmpdir {
+ public:
+  explicit ScopedTmpdir(const fs::path& dir) {
+    if (const char* old = std::getenv("TMPDIR")) old_ = old;
+    setenv("TMPDIR", dir.c_str(), 1);
+  }
+  ~ScopedTmpdir() {
+    if (old_.empty())
+      unsetenv("TMPDIR");
+    else
+      setenv("TMPDIR", old_.c_str(), 1);
+  }
+  ScopedTmpdir(const ScopedTmpdir&) = delete;
+  ScopedTmpdir& operator=(const ScopedTmpdir&) = delete;
+
+ private:
+  std::string old_;
+};
+
+// Scratch folders of the page writer left in the temporary folder.
 std::size_t scratch_folders() {
   std::size_t n = 0;
   for (const auto& e : fs::directory_iterator(fs::temp_directory_path())) {
@@ -167,7 +189,8 @@ PngSize png_size(const fs::path& file) {
 
 TEST(InspectionPage, WritesAnOfflinePageWithTheVerdictNumbersAndWarnings) {
   const Inspection in = make_inspection();
-  test::TempDir dir("inspection_page_test");
+  test::TempDir dir("inspection_page_test"), scratch("inspection_page_scratch");
+  const ScopedTmpdir tmp(scratch.path());
   const std::size_t scratch_before = scratch_folders();
   write_inspection_page(dir / "page.html", in.r, in.scan, in.cad, info());
   EXPECT_EQ(entries(dir.path()), std::vector<std::string>{"page.html"});
@@ -229,7 +252,8 @@ TEST(InspectionPage, SameInputSameBytes) {
 
 TEST(InspectionPage, MissingFolderThrowsOutputErrorAndLeavesNothing) {
   const Inspection in = make_inspection();
-  test::TempDir dir("inspection_page_test");
+  test::TempDir dir("inspection_page_test"), scratch("inspection_page_scratch");
+  const ScopedTmpdir tmp(scratch.path());
   const std::size_t scratch_before = scratch_folders();
   const fs::path page = dir / "missing" / "page.html";
   try {
