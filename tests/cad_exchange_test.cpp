@@ -321,6 +321,13 @@ TEST_F(CadExchange, LengthUnitOfTheFileIsRespected) {
 }
 
 TEST_F(CadExchange, ReadingIsDeterministicAndSafeFromTwoThreads) {
+#if defined(__SANITIZE_ADDRESS__)
+  // GCC 12's ASan runtime does not hold its allocator's locks across fork(): a reader's child
+  // forked while the other thread allocates inherits a held lock and waits forever (seen: the
+  // child blocked in the allocator, the parent on its pipe). glibc's malloc, which the plain build
+  // uses, takes its locks around fork(), so the test runs there (the README's test stage).
+  GTEST_SKIP() << "ASan's allocator is not fork-safe with a second thread allocating";
+#endif
   write_step(block_with_hole(), dir_ / "block.step");
   TriangleMesh meshes[2];
   {

@@ -218,6 +218,11 @@ TEST(Parallel, ThreadCount) {
 TEST(Parallel, ForkedChildHasAWorkingPool) {
 #if defined(__SANITIZE_THREAD__)
   GTEST_SKIP() << "ThreadSanitizer does not support threads started after fork()";
+#elif defined(__SANITIZE_ADDRESS__)
+  // Under GCC 12's ASan the child's new pool thread blocks in ASan's allocator on a lock that was
+  // held at fork() (seen on every run here): that runtime is not fork-safe with threads
+  // (cad_exchange_test.cpp). The plain build runs the test (the README's test stage).
+  GTEST_SKIP() << "ASan's runtime is not fork-safe with threads";
 #else
   parallel_tasks(2, 2, [](std::size_t) {});  // the parent's pool exists
   const pid_t pid = fork();

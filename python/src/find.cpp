@@ -6,6 +6,7 @@
 
 #include <string>
 
+#include "align3d/error.hpp"
 #include "align3d/report/find_overlay.hpp"
 #include "align3d/report/json.hpp"
 #include "binding.hpp"
@@ -31,15 +32,30 @@ std::string find_in(const Model& model_data, const FindArgs& a) {
   s.min_depth = a.min_depth, s.max_depth = a.max_depth;
   s.remove_plane = !a.keep_plane, s.seed = a.seed, s.threads = a.threads;
   py::gil_scoped_release release;
+  // A problem of the model or the scene names its file when it came from one, as the command's
+  // errors do (src/cli/find_command.cpp).
+  const auto named = [](const std::string& path, const DataError& e) {
+    return path.empty() ? e : DataError(path, e.problem());
+  };
   PpfModel model;
-  if constexpr (std::is_same_v<Model, std::string>)
+  if constexpr (std::is_same_v<Model, std::string>) {
     model = load_ppf_model(model_data);
-  else
-    model = build_find_model(model_data, a.voxel_fraction, a.threads);
+  } else {
+    try {
+      model = build_find_model(model_data, a.voxel_fraction, a.threads);
+    } catch (const DataError& e) {
+      throw named(a.model_path, e);
+    }
+  }
   if (a.symmetry != "auto") s.symmetry = parse_symmetry(a.symmetry, model.points);
   s.detect_symmetry = a.symmetry == "auto";
   const FindScene scene = read_find_scene(a.scene_path);
-  const FindResult r = find(model, scene, s);
+  FindResult r;
+  try {
+    r = find(model, scene, s);
+  } catch (const DataError& e) {
+    throw named(e.subject() == "model" ? a.model_path : a.scene_path, e);
+  }
   if (!a.output.empty()) report::write_find_overlay(a.output, scene.cloud, model, r);
   if (!a.image.empty()) report::write_find_image(a.image, r);
   return report::find_report(r, s, {a.model_path, model.points.size()},

@@ -1,6 +1,7 @@
 """synth, convert, ppf_model, evaluate, demo: the CLI's commands in-process."""
 
 import json
+import re
 import warnings
 
 import numpy as np
@@ -115,3 +116,9 @@ def test_find_with_a_saved_model_gives_the_same_instances(tmp_path):
     assert sum(near) >= 2
     with pytest.raises(align3d.SettingsError, match=r"--voxel"):
         align3d.ppf_model(stl, tmp_path / "x.ppf", find=True, voxel=3.0)
+    # The part in millimetres, the scene in metres: the error names the model's file, as the
+    # command's does.
+    tiny = tmp_path / "tiny.xyz"
+    np.savetxt(tiny, align3d.read_mesh(stl).vertices / 1000 + [0, 0, 1])
+    with pytest.raises(align3d.DataError, match=re.escape(str(stl)) + ".*larger than the whole"):
+        align3d.find(stl, tiny)
