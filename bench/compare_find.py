@@ -189,43 +189,6 @@ def model_points(align3d, stl):
     return np.asarray(align3d.read_mesh(stl).sample(MODEL_POINTS, seed=1).points, dtype=np.float64)
 
 
-# TEMPORARY (until align3d.match_instances is in the installed package): the same matching in numpy,
-# ADD-S by Open3D's nearest-neighbour search. Same signature and result as the binding.
-def match_instances_fallback(model_points, found, truth, visible, max_error, min_visible=0.5):
-    import open3d as o3d
-    nns = o3d.core.nns.NearestNeighborSearch(o3d.core.Tensor(model_points))
-    nns.knn_index()
-
-    def add_s(Ta, Tb):
-        D = np.linalg.solve(Tb, Ta)
-        q = model_points @ D[:3, :3].T + D[:3, 3]
-        _, d2 = nns.knn_search(o3d.core.Tensor(q), 1)
-        return float(np.sqrt(d2.numpy()).mean())
-
-    counted = sum(1 for v in visible if v >= min_visible)
-    taken = [False] * len(truth)
-    r = {"counted": counted, "true_positives": 0, "false_positives": 0, "excused": 0, "match": [],
-         "error": []}
-    for T in found:
-        best, best_e, nearest = -1, np.inf, np.inf
-        for k, Tt in enumerate(truth):
-            e = add_s(np.asarray(T), np.asarray(Tt))
-            nearest = min(nearest, e)
-            if not taken[k] and e < max_error and e < best_e:
-                best, best_e = k, e
-        r["match"].append(best)
-        r["error"].append(best_e if best >= 0 else nearest)
-        if best < 0:
-            r["false_positives"] += 1
-            continue
-        taken[best] = True
-        r["true_positives" if visible[best] >= min_visible else "excused"] += 1
-    claimed = r["true_positives"] + r["false_positives"]
-    r["recall"] = r["true_positives"] / counted if counted else 1.0
-    r["precision"] = r["true_positives"] / claimed if claimed else 1.0
-    return r
-
-
 def score_scene(match_instances, points, scene, instances):
     """BOP matching of one system's poses (best score first) against the scene's truth."""
     truth = json.load(open(os.path.join(scene["dir"], "scene.json")))
@@ -511,11 +474,7 @@ def main():
         notes.append(f"align3d: {args.cli} has no `find` command yet; skipped")
         systems.remove("align3d")
     align3d = import_align3d()
-    match_instances = getattr(align3d, "match_instances", None)
-    if match_instances is None:  # TEMPORARY, with match_instances_fallback
-        notes.append("scoring: align3d.match_instances is not in the installed package; the numpy "
-                     "fallback scored (temporary)")
-        match_instances = match_instances_fallback
+    match_instances = align3d.match_instances
 
     cache = args.cache or tempfile.mkdtemp(prefix="align3d_find_")
     os.makedirs(cache, exist_ok=True)

@@ -20,7 +20,9 @@ build_dir=${BUILD_DIR:-build-tsan}
 # -O1 -g1 with assertions: cheap to build, stacks with file and line (-g1's line tables are what
 # the reports use); benchmarks are not needed here.
 # No Python module: a TSan-instrumented extension does not load into an uninstrumented Python.
-ALIGN3D_PYTHON=OFF BUILD_DIR=$build_dir bash scripts/build.sh -DCMAKE_CXX_COMPILER=g++ \
+# Only the test targets: the suites below need the core library alone (tests/CMakeLists.txt).
+ALIGN3D_PYTHON=OFF BUILD_DIR=$build_dir BUILD_TARGETS="align3d_tests tsan_race_check" \
+  bash scripts/build.sh -DCMAKE_CXX_COMPILER=g++ \
   -DALIGN3D_SANITIZE_THREAD=ON -DALIGN3D_BUILD_TESTS=ON -DALIGN3D_BUILD_BENCH=OFF \
   -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g1" "$@"
 

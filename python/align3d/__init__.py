@@ -26,7 +26,7 @@ from ._errors import (
     SettingsError,
     StrictError,
 )
-from ._find import FindResult, find
+from ._find import FindResult, find, match_instances
 from ._inspect import InspectResult, inspect
 from ._mesh import TriangleMesh, is_mesh_file, read_mesh, write_mesh
 from ._register import RectifyResult, Result, rectify, register
@@ -61,6 +61,7 @@ __all__ = [
     "evaluate",
     "inspect",
     "find",
+    "match_instances",
     "FindResult",
     "is_mesh_file",
     "ppf_model",

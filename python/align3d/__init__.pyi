@@ -313,3 +313,13 @@ def find(
     image: Optional[PathLike] = ...,
     strict: bool = ...,
 ) -> FindResult: ...
+
+def match_instances(
+    model_points: Any,
+    found: Sequence[Any],
+    truth: Sequence[Any],
+    visible: Sequence[float],
+    max_error: float,
+    *,
+    min_visible: float = ...,
+) -> Dict[str, Any]: ...

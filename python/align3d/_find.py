@@ -10,7 +10,8 @@ from typing import Any, Dict, List, Optional, Sequence
 import numpy as np
 
 from . import _core
-from ._cloud import PathLike, PointCloud
+from ._cloud import PathLike, PointCloud, matrix, rows
+from ._errors import DataError
 from ._mesh import TriangleMesh, is_mesh_file, read_mesh
 from ._register import _Report, _is_path, _warn_all, _write_report
 
@@ -90,3 +91,41 @@ def find(model: Any, scene: PathLike, *, max_instances: int = 0,
         raise StrictError("; ".join(w.message for w in result.warnings))
     _warn_all(result.warnings)
     return result
+
+
+def match_instances(model_points: Any, found: Sequence[Any], truth: Sequence[Any],
+                    visible: Sequence[float], max_error: float, *,
+                    min_visible: float = 0.5) -> Dict[str, Any]:
+    """BOP's scoring of found poses against the true ones (Hodaň et al. 2016, 2018), as the
+    benchmark (bench/compare_find.py) and the tests score :func:`find`.
+
+    ``model_points``: (N, 3) points of the model (its surface sampled evenly, e.g.
+    ``read_mesh(f).sample(5000).points``); ``found``: 4x4 poses, best score first; ``truth``: the
+    true 4x4 poses, and ``visible`` their visible fractions. Each found pose is matched to the not
+    yet matched true pose of lowest ADD-S (the mean distance from each model point, posed, to the
+    nearest point of the model at the other pose: a symmetric part turned about its axis has no
+    error), if below ``max_error`` (in the points' units; BOP uses 10 % of the model's diameter).
+    True instances less visible than ``min_visible`` do not count for recall, and a pose matched
+    to one is ``excused`` (neither a true nor a false positive).
+
+    Returns a dict: ``counted``, ``true_positives``, ``false_positives``, ``excused``, ``match``
+    (per found pose: the index of its true pose, or -1), ``error`` (per found pose: ADD-S to its
+    match, or to the nearest true pose when unmatched; inf with none), ``recall`` and
+    ``precision`` (1 when there is nothing to count).
+    """
+    points = rows("model_points", model_points)
+    if points.shape[0] == 0:
+        raise ValueError("model_points: no points")
+    if not np.isfinite(points).all():
+        raise DataError("model_points: a point is not finite (NaN or Inf)")
+    found_m = [matrix(f"found[{k}]", T) for k, T in enumerate(found)]
+    truth_m = [matrix(f"truth[{k}]", T) for k, T in enumerate(truth)]
+    fractions = [float(v) for v in visible]
+    if len(fractions) != len(truth_m):
+        raise ValueError(f"visible: {len(fractions)} fractions for {len(truth_m)} true poses")
+    if not (np.isfinite(max_error) and max_error > 0):
+        raise ValueError(f"max_error: expected a positive distance, got {max_error}")
+    if not 0 <= min_visible <= 1:
+        raise ValueError(f"min_visible: expected a fraction in [0, 1], got {min_visible}")
+    return _core.match_instances(points, found_m, truth_m, fractions, float(max_error),
+                                 float(min_visible))
