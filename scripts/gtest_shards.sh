@@ -3,7 +3,7 @@
 # time, each under a time limit; exits non-zero when any shard fails, prints each shard's summary
 # and the log of every failed shard. CI's sanitizer stage runs the suite this way: ctest starts one
 # process per test, and under ASan that start (~0.35 s: the instrumented binary's load and static
-# set-up) was a quarter of the stage's test time (690 tests: 206 s through ctest, 151 s in two
+# set-up) was a quarter of the stage's test time (696 ctest tests: 206 s through ctest, 151 s in two
 # shards, on 2 cores). More shards than jobs cost more than they even out: six took 175 s, as a
 # suite that prepares its scene once per process (SetUpTestSuite) prepares it in every shard.
 # Usage: scripts/gtest_shards.sh BINARY SHARDS [gtest arguments...]
