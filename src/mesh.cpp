@@ -5,8 +5,10 @@
 #include <cmath>
 #include <limits>
 #include <numeric>
+#include <span>
 
 #include "align3d/error.hpp"
+#include "detail/parallel.hpp"
 #include "detail/random.hpp"
 
 namespace align3d {
@@ -110,32 +112,66 @@ TriangleMesh weld(const TriangleMesh& in, MeshRepair& r) {
   return out;
 }
 
+// The triangles at each vertex, in triangle order: vertex v's are triangles[start[v], start[v+1]).
+// A triangle is listed once under each distinct corner (a degenerate one repeats corners).
+struct Incidence {
+  std::vector<std::uint32_t> start, triangles;
+  std::span<const std::uint32_t> of(std::uint32_t v) const {
+    return {triangles.data() + start[v], triangles.data() + start[v + 1]};
+  }
+};
+
+bool first_use(const Triangle& t, int k) {
+  return (k < 1 || t[k] != t[0]) && (k < 2 || t[k] != t[1]);
+}
+
+Incidence incidence(const TriangleMesh& mesh) {
+  Incidence out;
+  out.start.assign(mesh.vertices.size() + 1, 0);
+  for (const Triangle& t : mesh.triangles)
+    for (int k = 0; k < 3; ++k) out.start[t[k] + 1] += first_use(t, k) ? 1 : 0;
+  for (std::size_t v = 0; v < mesh.vertices.size(); ++v) out.start[v + 1] += out.start[v];
+  out.triangles.resize(out.start.back());
+  std::vector<std::uint32_t> next(out.start.begin(), out.start.end() - 1);
+  for (std::size_t t = 0; t < mesh.triangles.size(); ++t)
+    for (int k = 0; k < 3; ++k)
+      if (first_use(mesh.triangles[t], k))
+        out.triangles[next[mesh.triangles[t][k]]++] = static_cast<std::uint32_t>(t);
+  return out;
+}
+
 // Drops triangles with a repeated corner, collinear corners (|ab × ac| below 1e-12 |ab| |ac|: no
 // normal) or the same corners as an earlier triangle (either winding: a duplicate would make its
-// edges non-manifold).
-void drop_degenerate(TriangleMesh& m, MeshRepair& r) {
+// edges non-manifold). An equal triangle shares the lowest corner, so the search for one runs
+// through that vertex's few triangles (a hash of every triangle's corners took 3x as long on a
+// 200 k-triangle mesh: its table does not fit in cache), each triangle on its own, in parallel.
+void drop_degenerate(TriangleMesh& m, MeshRepair& r, int threads) {
   const std::size_t before = m.triangles.size();
-  std::vector<Triangle> kept, sorted;  // sorted: each kept triangle's corners in increasing order
-  kept.reserve(m.triangles.size());
-  sorted.reserve(m.triangles.size());
-  IndexSet seen(m.triangles.size());
-  for (const Triangle& t : m.triangles) {
+  const Incidence at = incidence(m);
+  auto sorted = [](Triangle t) {
+    std::sort(t.begin(), t.end());
+    return t;
+  };
+  std::vector<std::uint8_t> keep(before, 0);
+  parallel_for(before, threads, [&](std::size_t i) {
+    const Triangle& t = m.triangles[i];
     const Eigen::Vector3d& a = m.vertices[t[0]];
     const Eigen::Vector3d ab = m.vertices[t[1]] - a, ac = m.vertices[t[2]] - a;
     if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2] ||
         !(ab.cross(ac).norm() > 1e-12 * ab.norm() * ac.norm()))
-      continue;
-    Triangle s = t;
-    std::sort(s.begin(), s.end());
-    const auto next = static_cast<std::uint32_t>(kept.size());
-    const std::uint64_t h = splitmix64(s[0] ^ splitmix64(s[1] ^ splitmix64(s[2])));
-    if (seen.find_or_insert(h, next, [&](std::uint32_t o) { return sorted[o] == s; }) != next)
-      continue;  // the first of equal triangles stays
-    kept.push_back(t);
-    sorted.push_back(s);
-  }
-  m.triangles = std::move(kept);
-  r.dropped_triangles = before - m.triangles.size();
+      return;
+    const Triangle s = sorted(t);
+    for (std::uint32_t j : at.of(s[0])) {
+      if (j >= i) break;  // the first of equal triangles stays
+      if (sorted(m.triangles[j]) == s) return;
+    }
+    keep[i] = 1;
+  });
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < before; ++i)
+    if (keep[i]) m.triangles[kept++] = m.triangles[i];
+  m.triangles.resize(kept);
+  r.dropped_triangles = before - kept;
 }
 
 // Whether neighbour o runs along t's edge k (corners k, k + 1) in the same direction as t: then
@@ -146,12 +182,15 @@ bool same_direction(const Triangle& t, int k, const Triangle& o) {
   return false;
 }
 
-void flip(Triangle& t) { std::swap(t[1], t[2]); }
+// Re-winds t, and keeps its neighbours in step: edge 0 (corners 0-1) becomes edge 2 and back.
+void flip(Triangle& t, std::array<std::uint32_t, 3>& neighbours) {
+  std::swap(t[1], t[2]);
+  std::swap(neighbours[0], neighbours[2]);
+}
 
 // Winds every piece consistently by a breadth-first walk over manifold edges, flipping the
 // smaller of the two classes the walk finds, then turns closed pieces outward.
-void orient(TriangleMesh& m, const std::vector<std::array<std::uint32_t, 3>>& neighbour,
-            MeshRepair& r) {
+void orient(TriangleMesh& m, std::vector<std::array<std::uint32_t, 3>>& neighbour, MeshRepair& r) {
   const std::size_t n = m.triangles.size();
   std::vector<std::int8_t> parity(n, -1);  // 1: flip relative to the piece's seed
   std::vector<std::uint32_t> queue;
@@ -180,13 +219,13 @@ void orient(TriangleMesh& m, const std::vector<std::array<std::uint32_t, 3>>& ne
     r.flipped_triangles += flip_class == 1 ? ones : queue.size() - ones;
     double volume = 0;
     for (std::uint32_t t : queue) {
-      if (parity[t] == flip_class) flip(m.triangles[t]);
+      if (parity[t] == flip_class) flip(m.triangles[t], neighbour[t]);
       const Triangle& f = m.triangles[t];
       volume += m.vertices[f[0]].dot(m.vertices[f[1]].cross(m.vertices[f[2]]));
     }
     if (closed && volume < 0) {
       ++r.inverted_components;
-      for (std::uint32_t t : queue) flip(m.triangles[t]);
+      for (std::uint32_t t : queue) flip(m.triangles[t], neighbour[t]);
     }
   }
 }
@@ -233,57 +272,61 @@ void check_mesh(const TriangleMesh& mesh, const std::string& what) {
 // Every edge through its first corner's triangles (a vertex → triangles table, in triangle order):
 // linear, where sorting the 3n half-edges by their ends took 4x longer on a 200 k-triangle mesh.
 // An undirected edge is counted once, by the lowest-numbered triangle using it.
-MeshAdjacency analyse_adjacency(const TriangleMesh& mesh) {
+MeshAdjacency analyse_adjacency(const TriangleMesh& mesh, int threads) {
   const std::size_t n = mesh.triangles.size();
   MeshAdjacency out;
   MeshTopology& topo = out.topology;
   out.neighbours.assign(n, {kUnset, kUnset, kUnset});
   topo.triangles = n;
-  // A triangle is listed once under each distinct corner (a degenerate one repeats corners).
-  auto first_use = [](const Triangle& t, int k) {
-    return (k < 1 || t[k] != t[0]) && (k < 2 || t[k] != t[1]);
-  };
-  std::vector<std::uint32_t> start(mesh.vertices.size() + 1, 0);
   for (const Triangle& t : mesh.triangles) {
-    for (int k = 0; k < 3; ++k) start[t[k] + 1] += first_use(t, k) ? 1 : 0;
     const Eigen::Vector3d& a = mesh.vertices[t[0]];
     topo.signed_volume += a.dot(mesh.vertices[t[1]].cross(mesh.vertices[t[2]])) / 6.0;
   }
-  for (std::size_t v = 0; v < mesh.vertices.size(); ++v) {
-    topo.vertices += start[v + 1] > 0 ? 1 : 0;
-    start[v + 1] += start[v];
-  }
-  std::vector<std::uint32_t> incident(start.back());
-  std::vector<std::uint32_t> next(start.begin(), start.end() - 1);
-  for (std::uint32_t t = 0; t < n; ++t)
-    for (int k = 0; k < 3; ++k)
-      if (first_use(mesh.triangles[t], k)) incident[next[mesh.triangles[t][k]]++] = t;
+  const Incidence at = incidence(mesh);
+  for (std::size_t v = 0; v < mesh.vertices.size(); ++v)
+    topo.vertices += at.start[v + 1] > at.start[v] ? 1 : 0;
+  // Each triangle's edges on their own, in parallel; then the pieces and windings in order.
+  struct Counts {
+    std::size_t boundary = 0, non_manifold = 0;
+  };
+  const Counts counts = parallel_reduce(
+      n, threads, Counts{},
+      [&](Counts& acc, std::size_t i) {
+        const auto t = static_cast<std::uint32_t>(i);
+        const Triangle& f = mesh.triangles[t];
+        for (int k = 0; k < 3; ++k) {
+          const std::uint32_t a = f[k], b = f[(k + 1) % 3];
+          std::uint32_t others = 0, other = kUnset, lowest = t;
+          for (std::uint32_t o : a != b ? at.of(a) : std::span<const std::uint32_t>()) {
+            const Triangle& g = mesh.triangles[o];
+            if (o == t || (g[0] != b && g[1] != b && g[2] != b)) continue;
+            ++others;
+            other = o;
+            lowest = std::min(lowest, o);
+          }
+          if (others == 0) {
+            ++acc.boundary;
+          } else if (others > 1) {
+            acc.non_manifold += lowest == t ? 1 : 0;
+          } else {
+            out.neighbours[t][k] = other;
+          }
+        }
+      },
+      [](Counts& a, const Counts& b) {
+        a.boundary += b.boundary;
+        a.non_manifold += b.non_manifold;
+      });
+  topo.boundary_edges = counts.boundary;
+  topo.non_manifold_edges = counts.non_manifold;
   Components pieces(n);
-  for (std::uint32_t t = 0; t < n; ++t) {
-    const Triangle& f = mesh.triangles[t];
+  for (std::uint32_t t = 0; t < n; ++t)
     for (int k = 0; k < 3; ++k) {
-      const std::uint32_t a = f[k], b = f[(k + 1) % 3];
-      std::uint32_t others = 0, other = kUnset, lowest = t;
-      for (std::uint32_t i = start[a]; a != b && i < start[a + 1]; ++i) {
-        const std::uint32_t o = incident[i];
-        const Triangle& g = mesh.triangles[o];
-        if (o == t || (g[0] != b && g[1] != b && g[2] != b)) continue;
-        ++others;
-        other = o;
-        lowest = std::min(lowest, o);
-      }
-      if (others == 0) {
-        ++topo.boundary_edges;
-      } else if (others > 1) {
-        topo.non_manifold_edges += lowest == t ? 1 : 0;
-      } else {
-        out.neighbours[t][k] = other;
-        if (t > other) continue;
-        if (same_direction(f, k, mesh.triangles[other])) ++topo.inconsistent_edges;
-        pieces.join(t, other);
-      }
+      const std::uint32_t o = out.neighbours[t][k];
+      if (o == kUnset || t > o) continue;
+      if (same_direction(mesh.triangles[t], k, mesh.triangles[o])) ++topo.inconsistent_edges;
+      pieces.join(t, o);
     }
-  }
   for (std::uint32_t t = 0; t < n; ++t)
     if (pieces.find(t) == t) ++topo.components;
   return out;
@@ -295,13 +338,30 @@ std::vector<std::array<std::uint32_t, 3>> edge_neighbours(const TriangleMesh& me
   return analyse_adjacency(mesh).neighbours;
 }
 
-TriangleMesh clean_mesh(const TriangleMesh& mesh, MeshRepair* repair) {
+TriangleMesh clean_mesh(const TriangleMesh& mesh, MeshRepair* repair, MeshAdjacency* adjacency,
+                        int threads) {
   MeshRepair r;
   TriangleMesh out = weld(mesh, r);
-  drop_degenerate(out, r);
-  const MeshAdjacency welded = analyse_adjacency(out);
+  drop_degenerate(out, r, threads);
+  MeshAdjacency welded = analyse_adjacency(out, threads);
   r.inconsistent_edges = welded.topology.inconsistent_edges;
   orient(out, welded.neighbours, r);
+  if (adjacency) {  // re-winding changed the volume and the inconsistent edges only
+    MeshTopology& topo = welded.topology;
+    topo.signed_volume = 0;
+    topo.inconsistent_edges = 0;
+    for (std::uint32_t t = 0; t < out.triangles.size(); ++t) {
+      const Triangle& f = out.triangles[t];
+      topo.signed_volume +=
+          out.vertices[f[0]].dot(out.vertices[f[1]].cross(out.vertices[f[2]])) / 6.0;
+      for (int k = 0; k < 3; ++k) {
+        const std::uint32_t o = welded.neighbours[t][k];
+        if (o != kUnset && t < o && same_direction(f, k, out.triangles[o]))
+          ++topo.inconsistent_edges;
+      }
+    }
+    *adjacency = std::move(welded);
+  }
   // Vertices only the dropped triangles used go too.
   std::vector<std::uint32_t> remap(out.vertices.size(), kUnset);
   std::vector<Eigen::Vector3d> vertices;

@@ -34,9 +34,7 @@ struct Tri {
 };
 
 // A triangle's bounding box in float, rounded outwards (the grid's candidates are culled by it).
-struct TriBox {
-  float lo[3], hi[3];
-};
+using TriBox = detail::BvhBox;
 
 // The squared distance from q to box b (a node or a triangle's box): a lower bound of any distance
 // to what b holds.
@@ -86,17 +84,17 @@ struct MeshIndex::Impl {
   MeshTopology topology;
   double diagonal = 0;
   std::vector<Node> nodes;
-  std::vector<Tri> tris;                        // leaf order
-  std::vector<TriBox> tri_boxes;                // leaf order
-  std::vector<std::uint32_t> leaf_position;     // mesh triangle → its place in `tris`
-  std::vector<Eigen::Vector3d> face_normals;    // mesh order
-  std::vector<Eigen::Vector3d> edge_normals;    // 3 per triangle, mesh order
-  std::vector<Eigen::Vector3d> vertex_normals;  // angle-weighted
-  detail::CandidateGrid grid;                   // lists positions in `tris`
+  std::vector<Tri> tris;                                 // leaf order
+  std::vector<TriBox> tri_boxes;                         // leaf order
+  std::vector<std::uint32_t> leaf_position;              // mesh triangle → its place in `tris`
+  std::vector<Eigen::Vector3d> face_normals;             // mesh order
+  std::vector<std::array<std::uint32_t, 3>> neighbours;  // across each edge (analyse_adjacency)
+  std::vector<Eigen::Vector3d> vertex_normals;           // angle-weighted
+  detail::CandidateGrid grid;                            // lists positions in `tris`
 
-  void build(int threads);
-  void compute_pseudo_normals(const std::vector<std::array<std::uint32_t, 3>>& neighbour,
-                              int threads);
+  std::vector<std::uint32_t> build(int threads);  // returns the leaf order (tris → mesh)
+  void compute_pseudo_normals(int threads);
+  Eigen::Vector3d edge_normal(std::uint32_t t, int k) const;
   void test(const Eigen::Vector3d& q, const Tri& t, SurfacePoint& best) const;
   void test_cell(const Eigen::Vector3d& q, std::span<const std::uint32_t> cell,
                  SurfacePoint& best) const;
@@ -191,15 +189,23 @@ void MeshIndex::Impl::search(const Eigen::Vector3d& q, SurfacePoint& best) const
   }
 }
 
-void MeshIndex::Impl::build(int threads) {
+std::vector<std::uint32_t> MeshIndex::Impl::build(int threads) {
   const std::size_t n = mesh.triangles.size();
-  std::vector<Eigen::AlignedBox3d> boxes(n);
+  std::vector<TriBox> boxes(n);  // mesh order
   parallel_for(n, threads, [&](std::size_t t) {
-    for (std::uint32_t v : mesh.triangles[t]) boxes[t].extend(mesh.vertices[v]);
+    const auto& f = mesh.triangles[t];
+    const Eigen::Vector3d lo =
+        mesh.vertices[f[0]].cwiseMin(mesh.vertices[f[1]]).cwiseMin(mesh.vertices[f[2]]);
+    const Eigen::Vector3d hi =
+        mesh.vertices[f[0]].cwiseMax(mesh.vertices[f[1]]).cwiseMax(mesh.vertices[f[2]]);
+    for (int k = 0; k < 3; ++k) {
+      boxes[t].lo[k] = detail::round_down(lo[k]);
+      boxes[t].hi[k] = detail::round_up(hi[k]);
+    }
   });
   detail::Bvh bvh = detail::build_bvh(boxes, kLeafSize, threads);
   nodes = std::move(bvh.nodes);
-  const std::vector<std::uint32_t>& order = bvh.order;
+  std::vector<std::uint32_t>& order = bvh.order;
   tris.resize(n);
   tri_boxes.resize(n);
   leaf_position.resize(n);
@@ -208,19 +214,16 @@ void MeshIndex::Impl::build(int threads) {
     const Eigen::Vector3d& a = mesh.vertices[f[0]];
     tris[i] = {a, mesh.vertices[f[1]] - a, mesh.vertices[f[2]] - a, face_normals[order[i]],
                order[i]};
-    for (int k = 0; k < 3; ++k) {
-      tri_boxes[i].lo[k] = detail::round_down(boxes[order[i]].min()[k]);
-      tri_boxes[i].hi[k] = detail::round_up(boxes[order[i]].max()[k]);
-    }
+    tri_boxes[i] = boxes[order[i]];
     leaf_position[order[i]] = static_cast<std::uint32_t>(i);
   });
+  return std::move(order);
 }
 
-// Face normals; edge pseudo-normals, the sum of the two faces' normals (a boundary or
-// non-manifold edge takes its own face's); vertex pseudo-normals, Σ αᵢ nᵢ over the incident faces
-// with αᵢ the face's angle at the vertex (Bærentzen and Aanæs 2005, eq. 2).
-void MeshIndex::Impl::compute_pseudo_normals(
-    const std::vector<std::array<std::uint32_t, 3>>& neighbour, int threads) {
+// Face normals and vertex pseudo-normals, Σ αᵢ nᵢ over the incident faces with αᵢ the face's
+// angle at the vertex (Bærentzen and Aanæs 2005, eq. 2). Edge pseudo-normals are found when asked
+// (edge_normal): stored, they were 72 bytes a triangle, for one lookup a query.
+void MeshIndex::Impl::compute_pseudo_normals(int threads) {
   const std::size_t n = mesh.triangles.size();
   face_normals.resize(n);
   std::vector<std::array<double, 3>> angles(n);  // each triangle's angle at each corner
@@ -240,16 +243,15 @@ void MeshIndex::Impl::compute_pseudo_normals(
       vertex_normals[mesh.triangles[t][k]] += angles[t][k] * face_normals[t];
   for (Eigen::Vector3d& v : vertex_normals)
     if (v.squaredNorm() > 0) v.normalize();
-  edge_normals.resize(3 * n);
-  parallel_for(n, threads, [&](std::size_t t) {
-    for (int k = 0; k < 3; ++k) {
-      const std::uint32_t o = neighbour[t][k];
-      Eigen::Vector3d e = face_normals[t];
-      if (o != kNoTriangle) e += face_normals[o];
-      // Two faces folded flat onto each other have no edge normal; the face's own stands in.
-      edge_normals[3 * t + k] = e.squaredNorm() > 1e-24 ? e.normalized() : face_normals[t];
-    }
-  });
+}
+
+// The sum of the two faces' normals (a boundary or non-manifold edge takes its own face's).
+Eigen::Vector3d MeshIndex::Impl::edge_normal(std::uint32_t t, int k) const {
+  const std::uint32_t o = neighbours[t][k];
+  Eigen::Vector3d e = face_normals[t];
+  if (o != kNoTriangle) e += face_normals[o];
+  // Two faces folded flat onto each other have no edge normal; the face's own stands in.
+  return e.squaredNorm() > 1e-24 ? e.normalized() : face_normals[t];
 }
 
 const char* to_string(MeshFeature f) {
@@ -271,23 +273,17 @@ const char* to_string(MeshFeature f) {
 MeshIndex::MeshIndex(const TriangleMesh& mesh, int threads, const std::string& what)
     : impl_(std::make_unique<Impl>()) {
   check_mesh(mesh, what);
-  impl_->mesh = clean_mesh(mesh, &impl_->repair);
+  MeshAdjacency adjacency;
+  impl_->mesh = clean_mesh(mesh, &impl_->repair, &adjacency, threads);
   if (impl_->mesh.triangles.empty())
     throw DataError(what, "no triangle of non-zero area (all " +
                               std::to_string(mesh.triangles.size()) + " are degenerate)");
-  const MeshAdjacency adjacency = analyse_adjacency(impl_->mesh);
   impl_->topology = adjacency.topology;
   impl_->diagonal = bounding_box_diagonal(impl_->mesh);
-  impl_->compute_pseudo_normals(adjacency.neighbours, threads);
-  impl_->build(threads);
-  const std::vector<Tri>& tris = impl_->tris;
-  std::vector<Eigen::Vector3d> a(tris.size()), b(tris.size()), c(tris.size());
-  parallel_for(tris.size(), threads, [&](std::size_t i) {
-    a[i] = tris[i].a;
-    b[i] = tris[i].a + tris[i].ab;
-    c[i] = tris[i].a + tris[i].ac;
-  });
-  impl_->grid = detail::CandidateGrid(a, b, c, surface_area(impl_->mesh), threads);
+  impl_->neighbours = std::move(adjacency.neighbours);
+  impl_->compute_pseudo_normals(threads);
+  const std::vector<std::uint32_t> order = impl_->build(threads);
+  impl_->grid = detail::CandidateGrid(impl_->mesh, order, surface_area(impl_->mesh), threads);
 }
 
 MeshIndex::~MeshIndex() = default;
@@ -339,7 +335,7 @@ Eigen::Vector3d MeshIndex::pseudo_normal(const SurfacePoint& p) const {
     case MeshFeature::kEdge0:
     case MeshFeature::kEdge1:
     case MeshFeature::kEdge2:
-      return impl_->edge_normals[3 * p.triangle + (static_cast<int>(p.feature) - 1)];
+      return impl_->edge_normal(p.triangle, static_cast<int>(p.feature) - 1);
     default:
       return impl_->vertex_normals[f[static_cast<int>(p.feature) - 4]];
   }
@@ -418,9 +414,8 @@ std::size_t MeshIndex::memory_bytes() const {
          m.nodes.capacity() * sizeof(Node) + m.tris.capacity() * sizeof(Tri) +
          m.tri_boxes.capacity() * sizeof(TriBox) +
          m.leaf_position.capacity() * sizeof(std::uint32_t) +
-         (m.face_normals.capacity() + m.edge_normals.capacity() + m.vertex_normals.capacity()) *
-             sizeof(Eigen::Vector3d) +
-         m.grid.memory_bytes();
+         (m.face_normals.capacity() + m.vertex_normals.capacity()) * sizeof(Eigen::Vector3d) +
+         m.neighbours.capacity() * sizeof(m.neighbours[0]) + m.grid.memory_bytes();
 }
 
 }  // namespace align3d

@@ -123,8 +123,10 @@ TEST(MeshIndex, NearSurfaceQueriesMatchBruteForceOnTiltedFineMeshes) {
     const PointCloud samples = sample_surface(mesh, 1500, 3);
     std::vector<Eigen::Vector3d> q;
     for (std::size_t i = 0; i < samples.size(); ++i)
-      q.push_back(samples.positions[i] + rng.uniform(-0.6, 0.6) * edge * samples.normals[i] +
-                  0.05 * edge * Eigen::Vector3d(rng.normal(), rng.normal(), rng.normal()));
+      q.push_back(
+          samples.positions[i] +  // half of them within the grid's reach, about
+          (i % 2 ? rng.uniform(-0.6, 0.6) : rng.uniform(-0.08, 0.08)) * edge * samples.normals[i] +
+          (i % 2 ? 0.05 : 0.01) * edge * Eigen::Vector3d(rng.normal(), rng.normal(), rng.normal()));
     std::vector<SurfacePoint> stored;
     index.closest_points(q, Eigen::Isometry3d::Identity(), INFINITY, 2, stored);
     std::vector<SurfacePoint> sunk(q.size());

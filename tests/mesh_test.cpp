@@ -62,6 +62,40 @@ TEST(Mesh, CleanRewindsFlippedTrianglesAndTurnsAnInsideOutSolidOutward) {
   EXPECT_NEAR(analyse_topology(clean).signed_volume, 3, 1e-12);
 }
 
+// clean_mesh hands back the adjacency it found before re-winding, kept in step with the flips:
+// it must be what analyse_adjacency finds on the cleaned mesh afresh.
+TEST(Mesh, CleanReturnsTheAdjacencyOfTheCleanedMesh) {
+  TriangleMesh m = test::unwelded(test::l_block());
+  for (std::size_t t : {1u, 5u, 9u}) std::swap(m.triangles[t][0], m.triangles[t][1]);
+  m.triangles.push_back(m.triangles[2]);                         // a duplicate, dropped
+  TriangleMesh inverted = test::box_mesh({5, 0, 0}, {6, 1, 1});  // closed, turned outward
+  for (auto& t : inverted.triangles) std::swap(t[1], t[2]);
+  TriangleMesh open = test::box_mesh({8, 0, 0}, {9, 1, 1});  // open: kept as it is
+  open.triangles.pop_back();
+  for (const TriangleMesh* piece : {&inverted, &open}) {
+    const auto base = static_cast<std::uint32_t>(m.vertices.size());
+    m.vertices.insert(m.vertices.end(), piece->vertices.begin(), piece->vertices.end());
+    for (auto t : piece->triangles) m.triangles.push_back({t[0] + base, t[1] + base, t[2] + base});
+  }
+  MeshRepair r;
+  MeshAdjacency got;
+  const TriangleMesh clean = clean_mesh(m, &r, &got);
+  EXPECT_EQ(r.flipped_triangles, 3u);
+  EXPECT_EQ(r.inverted_components, 1u);
+  const MeshAdjacency want = analyse_adjacency(clean);
+  EXPECT_EQ(got.neighbours, want.neighbours);
+  EXPECT_EQ(got.topology.vertices, want.topology.vertices);
+  EXPECT_EQ(got.topology.triangles, want.topology.triangles);
+  EXPECT_EQ(got.topology.boundary_edges, want.topology.boundary_edges);
+  EXPECT_EQ(got.topology.non_manifold_edges, want.topology.non_manifold_edges);
+  EXPECT_EQ(got.topology.inconsistent_edges, want.topology.inconsistent_edges);
+  EXPECT_EQ(got.topology.components, want.topology.components);
+  EXPECT_NEAR(got.topology.signed_volume, want.topology.signed_volume, 1e-12);
+  EXPECT_EQ(want.topology.components, 3u);
+  EXPECT_EQ(want.topology.inconsistent_edges, 0u);
+  EXPECT_GT(want.topology.boundary_edges, 0u);
+}
+
 TEST(Mesh, CleanDropsDegenerateAndDuplicateTriangles) {
   TriangleMesh m = test::box_mesh({0, 0, 0}, {1, 1, 1});
   m.triangles.push_back({0, 0, 1});       // repeated corner

@@ -62,12 +62,13 @@ MeshTopology analyse_topology(const TriangleMesh& mesh);
 // three or more triangles).
 std::vector<std::array<std::uint32_t, 3>> edge_neighbours(const TriangleMesh& mesh);
 
-// Both of the above from one pass over the edges (what MeshIndex needs).
+// Both of the above from one pass over the edges (what MeshIndex needs), on `threads` threads (0:
+// all cores; the result does not depend on it).
 struct MeshAdjacency {
   MeshTopology topology;
   std::vector<std::array<std::uint32_t, 3>> neighbours;  // as edge_neighbours
 };
-MeshAdjacency analyse_adjacency(const TriangleMesh& mesh);
+MeshAdjacency analyse_adjacency(const TriangleMesh& mesh, int threads = 0);
 
 // What clean_mesh changed.
 struct MeshRepair {
@@ -84,7 +85,10 @@ struct MeshRepair {
 // breadth-first walk (the fewer triangles are flipped); a closed piece with negative volume is
 // then flipped whole, so closed parts face outward. Open pieces keep the walk's winding (their
 // outside is a guess; the caller warns). Deterministic. The input must pass check_mesh.
-TriangleMesh clean_mesh(const TriangleMesh& mesh, MeshRepair* repair = nullptr);
+// `adjacency`, when given, receives analyse_adjacency of the cleaned mesh (found on the way).
+// `threads`: 0 for all cores; the result does not depend on it.
+TriangleMesh clean_mesh(const TriangleMesh& mesh, MeshRepair* repair = nullptr,
+                        MeshAdjacency* adjacency = nullptr, int threads = 0);
 
 // `count` points spread evenly by area over the triangles, each with its triangle's unit normal:
 // every triangle gets ⌊its share⌋ or ⌈its share⌉ of the points (systematic sampling of the

@@ -1,9 +1,11 @@
 #include "detail/bvh_build.hpp"
 
+#include <Eigen/Core>
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <limits>
+#include <numeric>
 
 #include "detail/parallel.hpp"
 
@@ -11,6 +13,9 @@ namespace align3d::detail {
 namespace {
 
 constexpr int kBins = 16;  // SAH bins per axis
+// Ranges of at most this many primitives are halved by count: binning them cost more than the
+// rest of the build (a node's 48 bins and their sweeps), for no measurable gain in the queries.
+constexpr std::uint32_t kSmall = 16;
 // Levels split on the calling thread; the 2^kSerialDepth subtrees below them are built in parallel.
 constexpr int kSerialDepth = 3;
 
@@ -37,6 +42,7 @@ struct FloatBox {
     lo = lo.min(l);
     hi = hi.max(h);
   }
+  void grow(const Eigen::Array4f& p) { grow(p, p); }
   void grow(const FloatBox& b) { grow(b.lo, b.hi); }
   double half_area() const {
     if (!(hi.x() >= lo.x())) return 0;
@@ -45,118 +51,196 @@ struct FloatBox {
   }
 };
 
-// A primitive as the builder moves it: its box, the box's centre and its index.
+// A primitive as the builder moves it: its box (32 bytes); its index moves alongside, in its own
+// array. lo + hi, twice its centre, is what the bins and the fallback split compare.
 struct Ref {
-  Eigen::Array4f lo, hi, centre;  // fourth lanes 0
-  std::uint32_t index;
+  Eigen::Array4f lo, hi;  // fourth lanes 0
+  Eigen::Array4f centre2() const { return lo + hi; }
   EIGEN_MAKE_ALIGNED_OPERATOR_NEW
 };
 
+// A range of refs with its box and the box of its centres (twice the centres, as centre2).
+struct Range {
+  std::uint32_t begin, end;
+  FloatBox box, centres;
+};
+
 struct Pending {  // a subtree left for the parallel stage
-  std::uint32_t node, begin, end;
+  std::uint32_t node;
+  Range range;
   int depth;
 };
 
 class Builder {
  public:
-  Builder(std::vector<Ref>& refs, std::uint32_t leaf_size) : refs_(refs), leaf_size_(leaf_size) {}
+  Builder(std::vector<Ref>& refs, std::vector<std::uint32_t>& index, std::uint32_t leaf_size)
+      : refs_(refs), index_(index), leaf_size_(leaf_size) {}
 
-  // Builds refs_[begin, end) into nodes[node] and below. With `pending`, a range at depth `stop`
-  // is not built but recorded there (nodes[node] then waits for it).
-  void build(std::vector<BvhNode>& nodes, std::uint32_t node, std::uint32_t begin,
-             std::uint32_t end, int depth, int stop, std::vector<Pending>* pending) const {
+  // Builds range r into nodes[node] and below. With `pending`, a range at depth `stop` is not
+  // built but recorded there (nodes[node] then waits for it).
+  void build(std::vector<BvhNode>& nodes, std::uint32_t node, const Range& r, int depth, int stop,
+             std::vector<Pending>* pending) const {
     if (pending && depth == stop) {
-      pending->push_back({node, begin, end, depth});
+      pending->push_back({node, r, depth});
       return;
     }
-    FloatBox box;
-    const std::uint32_t mid = split(begin, end, depth, box);
     for (int k = 0; k < 3; ++k) {
-      nodes[node].lo[k] = box.lo[k];
-      nodes[node].hi[k] = box.hi[k];
+      nodes[node].lo[k] = r.box.lo[k];
+      nodes[node].hi[k] = r.box.hi[k];
     }
-    if (mid == end) {
-      nodes[node].first = begin;
-      nodes[node].count = end - begin;
+    Range left, right;
+    if (!split(r, depth, left, right)) {
+      nodes[node].first = r.begin;
+      nodes[node].count = r.end - r.begin;
       return;
     }
-    const auto left = static_cast<std::uint32_t>(nodes.size());
+    const auto first = static_cast<std::uint32_t>(nodes.size());
     nodes.push_back({});
     nodes.push_back({});
-    nodes[node].first = left;
+    nodes[node].first = first;
     nodes[node].count = 0;
-    build(nodes, left, begin, mid, depth + 1, stop, pending);
-    build(nodes, left + 1, mid, end, depth + 1, stop, pending);
+    build(nodes, first, left, depth + 1, stop, pending);
+    build(nodes, first + 1, right, depth + 1, stop, pending);
   }
 
  private:
-  // Sets `box` to the range's bounds and splits it in two by the surface-area heuristic over
-  // kBins bins of the centres on each axis, returning the split position; or by count along the
-  // centres' longest axis when no bin split exists (coincident centres) or below kMaxSahDepth.
-  // Returns `end` for a leaf.
-  std::uint32_t split(std::uint32_t begin, std::uint32_t end, int depth, FloatBox& box) const {
-    FloatBox centres;
-    for (std::uint32_t i = begin; i < end; ++i) {
-      box.grow(refs_[i].lo, refs_[i].hi);
-      centres.grow(refs_[i].centre, refs_[i].centre);
+  // Splits r in two by the surface-area heuristic over kBins bins of the centres on each axis,
+  // or by count along the centres' longest axis when no bin split exists (coincident centres) or
+  // below kMaxSahDepth. False for a leaf.
+  bool split(const Range& r, int depth, Range& left, Range& right) const {
+    const std::uint32_t count = r.end - r.begin;
+    if (count <= leaf_size_) return false;
+    if (count <= kSmall) {
+      split_small(r, left, right);
+      return true;
     }
-    const std::uint32_t count = end - begin;
-    if (count <= leaf_size_) return end;
-    double best_cost = std::numeric_limits<double>::infinity();
-    int best_axis = -1, best_split = 0;
-    const Eigen::Array4f scale = bin_scale(centres);  // an axis without extent has scale 0
+    const Eigen::Array4f scale = bin_scale(r.centres);  // an axis without extent has scale 0
     if (depth < kMaxSahDepth) {
       // One pass bins every primitive on all three axes.
       std::array<std::array<FloatBox, kBins>, 3> bin_box;
       std::array<std::array<std::uint32_t, kBins>, 3> bin_count{};
-      for (std::uint32_t i = begin; i < end; ++i) {
-        const Eigen::Array4i b = bins(refs_[i], centres, scale);
+      for (std::uint32_t i = r.begin; i < r.end; ++i) {
+        const Eigen::Array4i b = bins(refs_[i], r.centres, scale);
         for (int axis = 0; axis < 3; ++axis) {
           bin_box[axis][b[axis]].grow(refs_[i].lo, refs_[i].hi);
           ++bin_count[axis][b[axis]];
         }
       }
-      for (int axis = 0; axis < 3; ++axis) {
-        if (scale[axis] == 0) continue;
-        const std::array<FloatBox, kBins>& boxes = bin_box[axis];
-        const std::array<std::uint32_t, kBins>& counts = bin_count[axis];
-        std::array<double, kBins> right_cost{};
-        FloatBox right;
-        std::uint32_t right_n = 0;
-        for (int b = kBins - 1; b > 0; --b) {
-          right.grow(boxes[b]);
-          right_n += counts[b];
-          right_cost[b] = right.half_area() * right_n;
-        }
-        FloatBox left;
-        std::uint32_t left_n = 0;
-        for (int b = 0; b < kBins - 1; ++b) {
-          left.grow(boxes[b]);
-          left_n += counts[b];
-          const double cost = left.half_area() * left_n + right_cost[b + 1];
-          if (left_n > 0 && left_n < count && cost < best_cost) {
-            best_cost = cost;
-            best_axis = axis;
-            best_split = b;
-          }
+      int axis = -1, at = 0;
+      best_split(bin_box, bin_count, count, scale, axis, at);
+      if (axis >= 0) {
+        left.box = right.box = FloatBox();
+        for (int b = 0; b < kBins; ++b) (b <= at ? left : right).box.grow(bin_box[axis][b]);
+        partition(
+            r, [&](const Ref& ref) { return bins(ref, r.centres, scale)[axis] <= at; }, left,
+            right);
+        return true;
+      }
+    }
+    split_by_count(r, left, right);
+    return true;
+  }
+
+  static void best_split(const std::array<std::array<FloatBox, kBins>, 3>& bin_box,
+                         const std::array<std::array<std::uint32_t, kBins>, 3>& bin_count,
+                         std::uint32_t count, const Eigen::Array4f& scale, int& best_axis,
+                         int& best_at) {
+    double best_cost = std::numeric_limits<double>::infinity();
+    for (int axis = 0; axis < 3; ++axis) {
+      if (scale[axis] == 0) continue;
+      const std::array<FloatBox, kBins>& boxes = bin_box[axis];
+      const std::array<std::uint32_t, kBins>& counts = bin_count[axis];
+      std::array<double, kBins> right_cost{};
+      FloatBox right;
+      std::uint32_t right_n = 0;
+      for (int b = kBins - 1; b > 0; --b) {
+        right.grow(boxes[b]);
+        right_n += counts[b];
+        right_cost[b] = right.half_area() * right_n;
+      }
+      FloatBox left;
+      std::uint32_t left_n = 0;
+      for (int b = 0; b < kBins - 1; ++b) {
+        left.grow(boxes[b]);
+        left_n += counts[b];
+        const double cost = left.half_area() * left_n + right_cost[b + 1];
+        if (left_n > 0 && left_n < count && cost < best_cost) {
+          best_cost = cost;
+          best_axis = axis;
+          best_at = b;
         }
       }
     }
-    if (best_axis >= 0) {
-      const Ref* split = std::partition(
-          refs_.data() + begin, refs_.data() + end,
-          [&](const Ref& r) { return bins(r, centres, scale)[best_axis] <= best_split; });
-      return static_cast<std::uint32_t>(split - refs_.data());
+  }
+
+  // Moves the refs (and their indices) that go left before the others, growing each side's
+  // centre bounds on the way; the sides' boxes are the caller's.
+  template <class GoesLeft>
+  void partition(const Range& r, GoesLeft&& goes_left, Range& left, Range& right) const {
+    std::uint32_t i = r.begin, j = r.end;
+    left.centres = right.centres = FloatBox();
+    for (;;) {
+      while (i < j && goes_left(refs_[i])) left.centres.grow(refs_[i++].centre2());
+      while (i < j && !goes_left(refs_[j - 1])) right.centres.grow(refs_[--j].centre2());
+      if (i == j) break;
+      std::swap(refs_[i], refs_[j - 1]);
+      std::swap(index_[i], index_[j - 1]);
     }
-    const std::uint32_t mid = begin + count / 2;
+    left.begin = r.begin;
+    left.end = right.begin = i;
+    right.end = r.end;
+  }
+
+  // Halves a few refs by count along their centres' longest axis, sorted in place (insertion
+  // sort; ties by index).
+  void split_small(const Range& r, Range& left, Range& right) const {
     Eigen::Index axis = 0;
-    (centres.hi - centres.lo).head<3>().maxCoeff(&axis);
-    std::nth_element(refs_.begin() + begin, refs_.begin() + mid, refs_.begin() + end,
-                     [&](const Ref& a, const Ref& b) {
-                       return a.centre[axis] < b.centre[axis] ||
-                              (a.centre[axis] == b.centre[axis] && a.index < b.index);
-                     });
-    return mid;
+    (r.centres.hi - r.centres.lo).head<3>().maxCoeff(&axis);
+    auto less = [&](std::uint32_t a, std::uint32_t b) {
+      const float ca = refs_[a].centre2()[axis], cb = refs_[b].centre2()[axis];
+      return ca < cb || (ca == cb && index_[a] < index_[b]);
+    };
+    for (std::uint32_t i = r.begin + 1; i < r.end; ++i)
+      for (std::uint32_t j = i; j > r.begin && less(j, j - 1); --j) {
+        std::swap(refs_[j], refs_[j - 1]);
+        std::swap(index_[j], index_[j - 1]);
+      }
+    left = {r.begin, r.begin + (r.end - r.begin) / 2, {}, {}};
+    right = {left.end, r.end, {}, {}};
+    bound(left);
+    bound(right);
+  }
+
+  void bound(Range& r) const {
+    for (std::uint32_t i = r.begin; i < r.end; ++i) {
+      r.box.grow(refs_[i].lo, refs_[i].hi);
+      r.centres.grow(refs_[i].centre2());
+    }
+  }
+
+  // Halves r by count along its centres' longest axis (ties by index: the same tree every time).
+  void split_by_count(const Range& r, Range& left, Range& right) const {
+    Eigen::Index axis = 0;
+    (r.centres.hi - r.centres.lo).head<3>().maxCoeff(&axis);
+    std::vector<std::uint32_t> at(r.end - r.begin);
+    std::iota(at.begin(), at.end(), r.begin);
+    const auto mid = static_cast<std::ptrdiff_t>(at.size() / 2);
+    std::nth_element(at.begin(), at.begin() + mid, at.end(), [&](std::uint32_t a, std::uint32_t b) {
+      const float ca = refs_[a].centre2()[axis], cb = refs_[b].centre2()[axis];
+      return ca < cb || (ca == cb && index_[a] < index_[b]);
+    });
+    std::vector<Ref> refs(at.size());
+    std::vector<std::uint32_t> index(at.size());
+    for (std::size_t k = 0; k < at.size(); ++k) {
+      refs[k] = refs_[at[k]];
+      index[k] = index_[at[k]];
+    }
+    std::copy(refs.begin(), refs.end(), refs_.begin() + r.begin);
+    std::copy(index.begin(), index.end(), index_.begin() + r.begin);
+    left = {r.begin, r.begin + static_cast<std::uint32_t>(mid), {}, {}};
+    right = {left.end, r.end, {}, {}};
+    bound(left);
+    bound(right);
   }
 
   // Bins per unit length on each axis of the centres' box; 0 where it has no extent.
@@ -168,42 +252,53 @@ class Builder {
   }
   // The primitive's bin on each axis (the binning and the partition share it: the same bits).
   static Eigen::Array4i bins(const Ref& r, const FloatBox& centres, const Eigen::Array4f& scale) {
-    return ((r.centre - centres.lo) * scale).cast<int>().min(kBins - 1);
+    return ((r.centre2() - centres.lo) * scale).cast<int>().min(kBins - 1);
   }
 
   std::vector<Ref>& refs_;
+  std::vector<std::uint32_t>& index_;
   std::uint32_t leaf_size_;
 };
 
 }  // namespace
 
-Bvh build_bvh(const std::vector<Eigen::AlignedBox3d>& boxes, std::uint32_t leaf_size, int threads) {
+Bvh build_bvh(const std::vector<BvhBox>& boxes, std::uint32_t leaf_size, int threads) {
   const std::size_t n = boxes.size();
   std::vector<Ref> refs(n);
-  parallel_for(n, threads, [&](std::size_t i) {
-    Ref& r = refs[i];
-    const Eigen::Vector3d centre = 0.5 * (boxes[i].min() + boxes[i].max());
-    for (int k = 0; k < 3; ++k) {
-      r.lo[k] = round_down(boxes[i].min()[k]);
-      r.hi[k] = round_up(boxes[i].max()[k]);
-      r.centre[k] = static_cast<float>(centre[k]);
-    }
-    r.lo[3] = r.hi[3] = r.centre[3] = 0;
-    r.index = static_cast<std::uint32_t>(i);
-  });
-  const std::uint32_t leaf = std::max<std::uint32_t>(leaf_size, 1);
-  const Builder builder(refs, leaf);
   Bvh bvh;
+  bvh.order.resize(n);
+  Range root{0, static_cast<std::uint32_t>(n), {}, {}};
+  struct Bounds {
+    FloatBox box, centres;
+  };
+  const Bounds all = parallel_reduce(
+      n, threads, Bounds{},
+      [&](Bounds& acc, std::size_t i) {
+        Ref& r = refs[i];
+        r.lo << boxes[i].lo[0], boxes[i].lo[1], boxes[i].lo[2], 0;
+        r.hi << boxes[i].hi[0], boxes[i].hi[1], boxes[i].hi[2], 0;
+        bvh.order[i] = static_cast<std::uint32_t>(i);
+        acc.box.grow(r.lo, r.hi);
+        acc.centres.grow(r.centre2());
+      },
+      [](Bounds& a, const Bounds& b) {
+        a.box.grow(b.box);
+        a.centres.grow(b.centres);
+      });
+  root.box = all.box;
+  root.centres = all.centres;
+  const std::uint32_t leaf = std::max<std::uint32_t>(leaf_size, 1);
+  const Builder builder(refs, bvh.order, leaf);
   bvh.nodes.reserve(2 * n / leaf + 2);
   bvh.nodes.push_back({});
   std::vector<Pending> pending;
-  builder.build(bvh.nodes, 0, 0, static_cast<std::uint32_t>(n), 0, kSerialDepth, &pending);
+  builder.build(bvh.nodes, 0, root, 0, kSerialDepth, &pending);
   std::vector<std::vector<BvhNode>> subtrees(pending.size());
   parallel_tasks(pending.size(), threads, [&](std::size_t i) {
     const Pending& p = pending[i];
-    subtrees[i].reserve(2 * (p.end - p.begin) / leaf + 2);
+    subtrees[i].reserve(2 * (p.range.end - p.range.begin) / leaf + 2);
     subtrees[i].push_back({});
-    builder.build(subtrees[i], 0, p.begin, p.end, p.depth, 0, nullptr);
+    builder.build(subtrees[i], 0, p.range, p.depth, 0, nullptr);
   });
   // Spliced in the order the top levels recorded them: subtree i's root replaces its placeholder
   // and the rest follows the nodes so far, its child links moved by the same offset.
@@ -214,8 +309,6 @@ Bvh build_bvh(const std::vector<Eigen::AlignedBox3d>& boxes, std::uint32_t leaf_
     bvh.nodes[pending[i].node] = subtrees[i][0];
     bvh.nodes.insert(bvh.nodes.end(), subtrees[i].begin() + 1, subtrees[i].end());
   }
-  bvh.order.resize(n);
-  for (std::size_t i = 0; i < n; ++i) bvh.order[i] = refs[i].index;
   return bvh;
 }
 

@@ -1,11 +1,12 @@
 // The bounding-volume hierarchy MeshIndex searches (mesh_index.cpp), built by binned SAH (Wald
 // 2007, "On fast construction of SAH-based bounding volume hierarchies"). Our own builder: the
-// ranges move through one contiguous array of float boxes (no indirection), and the subtrees below
-// the top levels are built in parallel and spliced in a fixed order, so the tree is the same at
-// any thread count (bench/README.md, "The mesh hierarchy").
+// ranges move through one contiguous array of 32-byte float boxes (no indirection); a node's
+// bounds come from the bins that chose its parent's split and its centres' bounds from the
+// partition, so each level reads the boxes twice, not three times; the subtrees below the top
+// levels are built in parallel and spliced in a fixed order, so the tree is the same at any
+// thread count (bench/README.md, "The mesh hierarchy").
 #pragma once
 
-#include <Eigen/Geometry>
 #include <cstdint>
 #include <vector>
 
@@ -19,6 +20,11 @@ struct BvhNode {
   std::uint32_t count;  // leaf: its primitives; 0: internal
 };
 
+// A primitive's bounds in float, rounded outwards (round_down, round_up below).
+struct BvhBox {
+  float lo[3], hi[3];
+};
+
 struct Bvh {
   std::vector<BvhNode> nodes;        // nodes[0]: the root
   std::vector<std::uint32_t> order;  // leaf order → the primitive's index in `boxes`
@@ -27,7 +33,7 @@ struct Bvh {
 // At most `leaf_size` primitives a leaf, unless their centres coincide beyond kMaxSahDepth levels;
 // the tree is at most kMaxDepth deep, so fixed query stacks of kMaxDepth + 1 entries suffice.
 // `threads`: 0 for all cores; the tree does not depend on it. `boxes` must not be empty.
-Bvh build_bvh(const std::vector<Eigen::AlignedBox3d>& boxes, std::uint32_t leaf_size, int threads);
+Bvh build_bvh(const std::vector<BvhBox>& boxes, std::uint32_t leaf_size, int threads);
 
 // v in float, rounded down or up (a box rounded outwards still holds what it held).
 float round_down(double v);

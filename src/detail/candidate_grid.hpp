@@ -11,17 +11,19 @@
 #include <span>
 #include <vector>
 
+#include "align3d/mesh.hpp"
+
 namespace align3d::detail {
 
 class CandidateGrid {
  public:
   CandidateGrid() = default;
-  // Triangles given by their corners (a[i], b[i], c[i]); the grid lists their positions i. Cells
+  // The triangles mesh.triangles[order[i]]; the grid lists their positions i. Cells
   // are cubes of side about √(area / triangles) (a few triangles a cell), and the reach a quarter
   // cell; the grid stays below kMaxCells cells (coarser cells otherwise) and below kMaxEntries
   // listed candidates (no grid otherwise: every query then uses the hierarchy).
-  CandidateGrid(const std::vector<Eigen::Vector3d>& a, const std::vector<Eigen::Vector3d>& b,
-                const std::vector<Eigen::Vector3d>& c, double area, int threads);
+  CandidateGrid(const TriangleMesh& mesh, const std::vector<std::uint32_t>& order, double area,
+                int threads);
 
   double reach() const { return reach_; }
   bool empty() const { return offsets_.empty(); }
@@ -36,6 +38,17 @@ class CandidateGrid {
   static constexpr std::size_t kMaxEntries = std::size_t{1} << 27;
 
  private:
+  static constexpr std::size_t kSlices = 16;  // slabs of blocks laid out in parallel
+  // The (cell key, triangle position) pairs of the listing, by chunk of triangles and slice.
+  struct Pairs {
+    std::size_t blocks = 0, chunks = 0, slices = 0, per_slice = 0, total = 0;
+    std::vector<std::vector<std::uint32_t>> of;  // [chunk × slices + slice]: key, triangle, ...
+    std::size_t slice(std::uint32_t key) const { return key / kBlockCells / per_slice; }
+  };
+  void size_cells(const TriangleMesh& mesh, double mean_area);
+  Pairs list(const TriangleMesh& mesh, const std::vector<std::uint32_t>& order, int threads) const;
+  void lay_out(const Pairs& pairs, int threads);
+
   // Cells are stored by blocks of kBlock³, only the blocks a triangle reaches (a surface meets a
   // few percent of its bounding box's cells): a cell's key is its block's number × kBlockCells +
   // its place in the block.
