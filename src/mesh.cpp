@@ -182,6 +182,23 @@ bool same_direction(const Triangle& t, int k, const Triangle& o) {
   return false;
 }
 
+// The winding's share of the topology: the signed volume, and the edges whose two triangles run
+// along them in the same direction. Re-winding changes these two counts only.
+void count_winding(const TriangleMesh& m,
+                   const std::vector<std::array<std::uint32_t, 3>>& neighbours,
+                   MeshTopology& topo) {
+  topo.signed_volume = 0;
+  topo.inconsistent_edges = 0;
+  for (std::uint32_t t = 0; t < m.triangles.size(); ++t) {
+    const Triangle& f = m.triangles[t];
+    topo.signed_volume += m.vertices[f[0]].dot(m.vertices[f[1]].cross(m.vertices[f[2]])) / 6.0;
+    for (int k = 0; k < 3; ++k) {
+      const std::uint32_t o = neighbours[t][k];
+      if (o != kUnset && t < o && same_direction(f, k, m.triangles[o])) ++topo.inconsistent_edges;
+    }
+  }
+}
+
 // Re-winds t, and keeps its neighbours in step: edge 0 (corners 0-1) becomes edge 2 and back.
 void flip(Triangle& t, std::array<std::uint32_t, 3>& neighbours) {
   std::swap(t[1], t[2]);
@@ -278,14 +295,10 @@ MeshAdjacency analyse_adjacency(const TriangleMesh& mesh, int threads) {
   MeshTopology& topo = out.topology;
   out.neighbours.assign(n, {kUnset, kUnset, kUnset});
   topo.triangles = n;
-  for (const Triangle& t : mesh.triangles) {
-    const Eigen::Vector3d& a = mesh.vertices[t[0]];
-    topo.signed_volume += a.dot(mesh.vertices[t[1]].cross(mesh.vertices[t[2]])) / 6.0;
-  }
   const Incidence at = incidence(mesh);
   for (std::size_t v = 0; v < mesh.vertices.size(); ++v)
     topo.vertices += at.start[v + 1] > at.start[v] ? 1 : 0;
-  // Each triangle's edges on their own, in parallel; then the pieces and windings in order.
+  // Each triangle's edges on their own, in parallel; then the windings and the pieces in order.
   struct Counts {
     std::size_t boundary = 0, non_manifold = 0;
   };
@@ -319,14 +332,11 @@ MeshAdjacency analyse_adjacency(const TriangleMesh& mesh, int threads) {
       });
   topo.boundary_edges = counts.boundary;
   topo.non_manifold_edges = counts.non_manifold;
+  count_winding(mesh, out.neighbours, topo);
   Components pieces(n);
   for (std::uint32_t t = 0; t < n; ++t)
-    for (int k = 0; k < 3; ++k) {
-      const std::uint32_t o = out.neighbours[t][k];
-      if (o == kUnset || t > o) continue;
-      if (same_direction(mesh.triangles[t], k, mesh.triangles[o])) ++topo.inconsistent_edges;
-      pieces.join(t, o);
-    }
+    for (std::uint32_t o : out.neighbours[t])
+      if (o != kUnset && t < o) pieces.join(t, o);
   for (std::uint32_t t = 0; t < n; ++t)
     if (pieces.find(t) == t) ++topo.components;
   return out;
@@ -346,20 +356,8 @@ TriangleMesh clean_mesh(const TriangleMesh& mesh, MeshRepair* repair, MeshAdjace
   MeshAdjacency welded = analyse_adjacency(out, threads);
   r.inconsistent_edges = welded.topology.inconsistent_edges;
   orient(out, welded.neighbours, r);
-  if (adjacency) {  // re-winding changed the volume and the inconsistent edges only
-    MeshTopology& topo = welded.topology;
-    topo.signed_volume = 0;
-    topo.inconsistent_edges = 0;
-    for (std::uint32_t t = 0; t < out.triangles.size(); ++t) {
-      const Triangle& f = out.triangles[t];
-      topo.signed_volume +=
-          out.vertices[f[0]].dot(out.vertices[f[1]].cross(out.vertices[f[2]])) / 6.0;
-      for (int k = 0; k < 3; ++k) {
-        const std::uint32_t o = welded.neighbours[t][k];
-        if (o != kUnset && t < o && same_direction(f, k, out.triangles[o]))
-          ++topo.inconsistent_edges;
-      }
-    }
+  if (adjacency) {  // the neighbours followed the flips (orient); the winding counts did not
+    count_winding(out, welded.neighbours, welded.topology);
     *adjacency = std::move(welded);
   }
   // Vertices only the dropped triangles used go too.

@@ -205,7 +205,7 @@ std::vector<std::uint32_t> MeshIndex::Impl::build(int threads) {
   });
   detail::Bvh bvh = detail::build_bvh(boxes, kLeafSize, threads);
   nodes = std::move(bvh.nodes);
-  std::vector<std::uint32_t>& order = bvh.order;
+  const std::vector<std::uint32_t>& order = bvh.order;
   tris.resize(n);
   tri_boxes.resize(n);
   leaf_position.resize(n);
@@ -217,7 +217,7 @@ std::vector<std::uint32_t> MeshIndex::Impl::build(int threads) {
     tri_boxes[i] = boxes[order[i]];
     leaf_position[order[i]] = static_cast<std::uint32_t>(i);
   });
-  return std::move(order);
+  return std::move(bvh.order);
 }
 
 // Face normals and vertex pseudo-normals, Σ αᵢ nᵢ over the incident faces with αᵢ the face's

@@ -105,13 +105,13 @@ class Builder {
 
  private:
   // Splits r in two by the surface-area heuristic over kBins bins of the centres on each axis,
-  // or by count along the centres' longest axis when no bin split exists (coincident centres) or
-  // below kMaxSahDepth. False for a leaf.
+  // or by count along the centres' longest axis for kSmall refs or fewer, when no bin split exists
+  // (coincident centres) or below kMaxSahDepth. False for a leaf.
   bool split(const Range& r, int depth, Range& left, Range& right) const {
     const std::uint32_t count = r.end - r.begin;
     if (count <= leaf_size_) return false;
     if (count <= kSmall) {
-      split_small(r, left, right);
+      split_by_count(r, left, right);
       return true;
     }
     const Eigen::Array4f scale = bin_scale(r.centres);  // an axis without extent has scale 0
@@ -191,22 +191,37 @@ class Builder {
     right.end = r.end;
   }
 
-  // Halves a few refs by count along their centres' longest axis, sorted in place (insertion
-  // sort; ties by index).
-  void split_small(const Range& r, Range& left, Range& right) const {
+  // Halves r by count along its centres' longest axis (ties by index: the same tree every time):
+  // a few refs sorted in place (insertion sort), many through a permutation (nth_element).
+  void split_by_count(const Range& r, Range& left, Range& right) const {
     Eigen::Index axis = 0;
     (r.centres.hi - r.centres.lo).head<3>().maxCoeff(&axis);
-    auto less = [&](std::uint32_t a, std::uint32_t b) {
+    auto before = [&](std::uint32_t a, std::uint32_t b) {
       const float ca = refs_[a].centre2()[axis], cb = refs_[b].centre2()[axis];
       return ca < cb || (ca == cb && index_[a] < index_[b]);
     };
-    for (std::uint32_t i = r.begin + 1; i < r.end; ++i)
-      for (std::uint32_t j = i; j > r.begin && less(j, j - 1); --j) {
-        std::swap(refs_[j], refs_[j - 1]);
-        std::swap(index_[j], index_[j - 1]);
+    const std::uint32_t count = r.end - r.begin, mid = r.begin + count / 2;
+    if (count <= kSmall) {
+      for (std::uint32_t i = r.begin + 1; i < r.end; ++i)
+        for (std::uint32_t j = i; j > r.begin && before(j, j - 1); --j) {
+          std::swap(refs_[j], refs_[j - 1]);
+          std::swap(index_[j], index_[j - 1]);
+        }
+    } else {
+      std::vector<std::uint32_t> at(count);
+      std::iota(at.begin(), at.end(), r.begin);
+      std::nth_element(at.begin(), at.begin() + (mid - r.begin), at.end(), before);
+      std::vector<Ref> refs(count);
+      std::vector<std::uint32_t> index(count);
+      for (std::size_t k = 0; k < count; ++k) {
+        refs[k] = refs_[at[k]];
+        index[k] = index_[at[k]];
       }
-    left = {r.begin, r.begin + (r.end - r.begin) / 2, {}, {}};
-    right = {left.end, r.end, {}, {}};
+      std::copy(refs.begin(), refs.end(), refs_.begin() + r.begin);
+      std::copy(index.begin(), index.end(), index_.begin() + r.begin);
+    }
+    left = {r.begin, mid, {}, {}};
+    right = {mid, r.end, {}, {}};
     bound(left);
     bound(right);
   }
@@ -216,31 +231,6 @@ class Builder {
       r.box.grow(refs_[i].lo, refs_[i].hi);
       r.centres.grow(refs_[i].centre2());
     }
-  }
-
-  // Halves r by count along its centres' longest axis (ties by index: the same tree every time).
-  void split_by_count(const Range& r, Range& left, Range& right) const {
-    Eigen::Index axis = 0;
-    (r.centres.hi - r.centres.lo).head<3>().maxCoeff(&axis);
-    std::vector<std::uint32_t> at(r.end - r.begin);
-    std::iota(at.begin(), at.end(), r.begin);
-    const auto mid = static_cast<std::ptrdiff_t>(at.size() / 2);
-    std::nth_element(at.begin(), at.begin() + mid, at.end(), [&](std::uint32_t a, std::uint32_t b) {
-      const float ca = refs_[a].centre2()[axis], cb = refs_[b].centre2()[axis];
-      return ca < cb || (ca == cb && index_[a] < index_[b]);
-    });
-    std::vector<Ref> refs(at.size());
-    std::vector<std::uint32_t> index(at.size());
-    for (std::size_t k = 0; k < at.size(); ++k) {
-      refs[k] = refs_[at[k]];
-      index[k] = index_[at[k]];
-    }
-    std::copy(refs.begin(), refs.end(), refs_.begin() + r.begin);
-    std::copy(index.begin(), index.end(), index_.begin() + r.begin);
-    left = {r.begin, r.begin + static_cast<std::uint32_t>(mid), {}, {}};
-    right = {left.end, r.end, {}, {}};
-    bound(left);
-    bound(right);
   }
 
   // Bins per unit length on each axis of the centres' box; 0 where it has no extent.
