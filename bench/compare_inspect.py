@@ -3,7 +3,8 @@
 same points against the same mesh in the same run.
 
 Usage:
-  bench/compare_inspect.py [--points 2000000] [--triangles 30000[,200000]] [--cases full,part]
+  bench/compare_inspect.py [--points 2000000] [--triangles 30000[,200000]]
+                           [--cases full,part,shuffled]
                            [--systems align3d,cloudcompare,open3d,open3d-signed] [--runs 5]
                            [--warmup 1] [--threads 2] [--probes 200000] [--wait-idle PCT]
                            [--load N] [--json FILE] [--cli build/align3d] [--build build]
@@ -18,6 +19,9 @@ identical coordinates. Cases:
   full   every scan point (the fixture too: the table lies up to 66 mm from the part; its
          distances are computed exactly by all three)
   part   the part points only (scan_truth.ply's labels), as after segmenting the fixture away
+  shuffled  the full scan's points in a random order (seed 1). The scan files are in the
+         scanner's raster order, which align3d searches as it is (MeshIndex::coherent_order); a
+         cloud in no useful order is sorted first (spatial_order): this case shows that cost.
 Probe points (--probes, uniform in the part's box grown by 10 mm, float32, seed 1) test the signs
 far from the surface too.
 
@@ -171,19 +175,21 @@ def make_data(cache, cli, points, triangles, probes):
     d["delta"] = np.asarray(truth["deviation"], dtype=np.float64)
     full = os.path.join(folder, "scan_cad.ply")
     part = os.path.join(folder, "scan_cad_part.ply")
+    shuffled = os.path.join(folder, "scan_cad_shuffled.ply")
     probe = os.path.join(folder, f"probes_{probes}.ply")
-    if not (os.path.isfile(full) and os.path.isfile(part)):
+    if not all(os.path.isfile(f) for f in (full, part, shuffled)):
         T = np.loadtxt(os.path.join(folder, "ground_truth.txt"))
         p = xyz(read_ply(os.path.join(folder, "scan.ply"))).astype(np.float64)
         cad = p @ T[:3, :3].T + T[:3, 3]  # once, in float64, then rounded to float32
         write_ply(full, cad)
         write_ply(part, cad[d["label"] == 0])
+        write_ply(shuffled, cad[np.random.default_rng(1).permutation(len(cad))])
     if probes and not os.path.isfile(probe):
         corners = read_stl_triangles(d["mesh"]).reshape(-1, 3)
         lo, hi = corners.min(axis=0) - 10, corners.max(axis=0) + 10
         rng = np.random.default_rng(1)
         write_ply(probe, lo + (hi - lo) * rng.random((probes, 3)))
-    d["cases"] = {"full": full, "part": part}
+    d["cases"] = {"full": full, "part": part, "shuffled": shuffled}
     if probes:
         d["cases"]["probes"] = probe
     return d
@@ -334,7 +340,7 @@ def main():
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--points", type=int, default=2000000)
     ap.add_argument("--triangles", default="30000", help="comma-separated --triangles of synth")
-    ap.add_argument("--cases", default="full,part")
+    ap.add_argument("--cases", default="full,part,shuffled")
     ap.add_argument("--systems", default=",".join(SYSTEMS))
     ap.add_argument("--runs", type=int, default=5)
     ap.add_argument("--warmup", type=int, default=1)

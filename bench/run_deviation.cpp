@@ -9,10 +9,12 @@
 // clock and after reading:
 //   build  the MeshIndex of the mesh as read (cleaning, pseudo-normals, hierarchy, candidate grid)
 //   query  measure_deviations(scan, index, T, max_distance = ∞): every point's exact signed
-//          distance (spatial order, warm starts, pseudo-normal signs) in double precision
-// and prints one JSON line on stdout: the times (wall and CPU of the whole process), the sizes,
-// the index's own bytes, the deviation map's bytes, and memory: rss_before_scan_kb (the process's
-// resident set once the library is loaded and the mesh read, before the scan is read) and
+//          distance (the scan's own order when coherent, else spatial order; warm starts;
+//          pseudo-normal signs) in double precision
+// and prints one JSON line on stdout: the times (wall and CPU of the whole process) and the minor
+// page faults of each step (fresh pages the kernel zeroes: a cost the CPU time includes), the
+// sizes, the index's own bytes, the deviation map's bytes, and memory: rss_before_scan_kb (the
+// process's resident set once the library is loaded and the mesh read, before the scan is read) and
 // peak_rss_kb (getrusage's high-water mark at the end), so that (peak − before) ÷ points is what
 // the scan costs: its points (24 bytes each, double), the index, the query's temporaries and the
 // map.
@@ -105,9 +107,17 @@ double cpu_ms() {
   return 1e3 * static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_nsec);
 }
 
+long minor_faults() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return u.ru_minflt;
+}
+
 struct Stopwatch {
   std::chrono::steady_clock::time_point wall = std::chrono::steady_clock::now();
   double cpu = cpu_ms();
+  long faults = minor_faults();
+  long faults_elapsed() const { return minor_faults() - faults; }
   double wall_ms() const {
     return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - wall)
         .count();
@@ -143,11 +153,13 @@ int run(const Args& a) {
   const Stopwatch build;
   const align3d::MeshIndex index(mesh, a.threads, a.mesh);
   const double build_ms = build.wall_ms(), build_cpu_ms = build.cpu_elapsed_ms();
+  const long build_faults = build.faults_elapsed();
 
   const Stopwatch query;
   const align3d::DeviationMap map = align3d::measure_deviations(
       scan.positions, index, T, std::numeric_limits<double>::infinity(), a.threads);
   const double query_ms = query.wall_ms(), query_cpu_ms = query.cpu_elapsed_ms();
+  const long query_faults = query.faults_elapsed();
   const long peak_kb = peak_rss_kb();  // before the untimed extras below allocate anything
 
   if (!a.out.empty())
@@ -177,6 +189,8 @@ int run(const Args& a) {
   s += ",\"build_cpu_ms\":" + number(build_cpu_ms);
   s += ",\"query_ms\":" + number(query_ms);
   s += ",\"query_cpu_ms\":" + number(query_cpu_ms);
+  s += ",\"build_page_faults\":" + std::to_string(build_faults);
+  s += ",\"query_page_faults\":" + std::to_string(query_faults);
   s += ",\"index_bytes\":" + std::to_string(index.memory_bytes());
   s += ",\"map_bytes\":" + std::to_string(map_bytes);
   s += ",\"outliers\":" + std::to_string(map.outliers);

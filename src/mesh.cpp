@@ -39,11 +39,13 @@ struct Components {
 
 // A hash set of item numbers (open addressing, linear probing, grown at half load), the caller
 // supplying each item's hash and equality. Written by hand: std::unordered_map allocates a node
-// per item, and weld and drop_degenerate look up every corner and triangle of the mesh (3x faster
-// on a 200 k-triangle STL, whose table then fits in cache).
+// per item, and weld looks up every corner of the mesh (3x faster on a 200 k-triangle STL).
 class IndexSet {
  public:
   explicit IndexSet(std::size_t expected) : slots_(std::bit_ceil(2 * expected + 16), kEmpty) {}
+
+  // Asks the cache for the slot where a search for hash h starts.
+  void prefetch(std::uint64_t h) const { __builtin_prefetch(&slots_[h & (slots_.size() - 1)]); }
 
   // The item already present equal to `item` (hash h), or `item` after inserting it.
   template <class Equal>
@@ -80,33 +82,47 @@ class IndexSet {
   std::size_t size_ = 0;
 };
 
-// Welds vertices with identical coordinates (−0 and +0 alike) and keeps only used ones.
+// Welds vertices with identical coordinates (−0 and +0 alike) and keeps only used ones, numbered
+// in order of first use. The table misses the cache at nearly every lookup (4 MB for a 200 k-facet
+// STL, whose 600 k corners are all distinct vertices), so each corner's slot is prefetched
+// kAhead corners before it is looked up: 14 ms instead of 20 on that STL.
 TriangleMesh weld(const TriangleMesh& in, MeshRepair& r) {
+  constexpr std::size_t kAhead = 16;
   auto bits = [](double v) { return std::bit_cast<std::uint64_t>(v + 0.0); };
+  auto hash_of = [&](const Eigen::Vector3d& p) {
+    return splitmix64(bits(p.x()) ^ splitmix64(bits(p.y()) ^ splitmix64(bits(p.z()))));
+  };
   IndexSet table(in.triangles.size() / 2);  // a closed mesh has about half as many vertices
   std::vector<std::uint32_t> remap(in.vertices.size(), kUnset);
   TriangleMesh out;
-  out.triangles.reserve(in.triangles.size());
+  out.triangles.resize(in.triangles.size());
+  out.vertices.reserve(in.vertices.size());  // address space only: pages are touched as it grows
+  const std::size_t corners = 3 * in.triangles.size();
+  auto vertex = [&](std::size_t c) { return in.triangles[c / 3][c % 3]; };
+  std::array<std::uint64_t, kAhead> ahead{};  // the hashes of corners c .. c + kAhead - 1
+  auto look_ahead = [&](std::size_t c) {
+    if (c >= corners || remap[vertex(c)] != kUnset) return;
+    ahead[c % kAhead] = hash_of(in.vertices[vertex(c)]);
+    table.prefetch(ahead[c % kAhead]);
+  };
+  for (std::size_t c = 0; c < std::min(kAhead, corners); ++c) look_ahead(c);
   std::size_t used = 0;
-  for (const Triangle& t : in.triangles) {
-    Triangle w;
-    for (int k = 0; k < 3; ++k) {
-      std::uint32_t& m = remap[t[k]];
-      if (m == kUnset) {
-        ++used;
-        const Eigen::Vector3d& p = in.vertices[t[k]];
-        const std::uint64_t x = bits(p.x()), y = bits(p.y()), z = bits(p.z());
-        const auto next = static_cast<std::uint32_t>(out.vertices.size());
-        m = table.find_or_insert(splitmix64(x ^ splitmix64(y ^ splitmix64(z))), next,
-                                 [&](std::uint32_t v) {
-                                   const Eigen::Vector3d& o = out.vertices[v];
-                                   return bits(o.x()) == x && bits(o.y()) == y && bits(o.z()) == z;
-                                 });
-        if (m == next) out.vertices.push_back(p);
-      }
-      w[k] = m;
+  for (std::size_t c = 0; c < corners; ++c) {
+    const std::uint32_t v = vertex(c);
+    std::uint32_t& m = remap[v];
+    if (m == kUnset) {  // hashed when looked ahead: only an earlier corner could have set m
+      ++used;
+      const Eigen::Vector3d& p = in.vertices[v];
+      const auto next = static_cast<std::uint32_t>(out.vertices.size());
+      m = table.find_or_insert(ahead[c % kAhead], next, [&](std::uint32_t o) {
+        const Eigen::Vector3d& q = out.vertices[o];
+        return bits(q.x()) == bits(p.x()) && bits(q.y()) == bits(p.y()) &&
+               bits(q.z()) == bits(p.z());
+      });
+      if (m == next) out.vertices.push_back(p);
     }
-    out.triangles.push_back(w);
+    out.triangles[c / 3][c % 3] = m;
+    look_ahead(c + kAhead);
   }
   r.welded_vertices = used - out.vertices.size();
   return out;

@@ -14,9 +14,11 @@
 #include <string>
 
 #include "align3d/error.hpp"
+#include "align3d/kdtree.hpp"
 #include "detail/bvh_build.hpp"
 #include "detail/candidate_grid.hpp"
 #include "detail/parallel.hpp"
+#include "detail/uninitialized.hpp"
 
 namespace align3d {
 namespace {
@@ -84,13 +86,13 @@ struct MeshIndex::Impl {
   MeshTopology topology;
   double diagonal = 0;
   std::vector<Node> nodes;
-  std::vector<Tri> tris;                                 // leaf order
-  std::vector<TriBox> tri_boxes;                         // leaf order
-  std::vector<std::uint32_t> leaf_position;              // mesh triangle → its place in `tris`
-  std::vector<Eigen::Vector3d> face_normals;             // mesh order
-  std::vector<std::array<std::uint32_t, 3>> neighbours;  // across each edge (analyse_adjacency)
-  std::vector<Eigen::Vector3d> vertex_normals;           // angle-weighted
-  detail::CandidateGrid grid;                            // lists positions in `tris`
+  detail::UninitializedVector<Tri> tris;                     // leaf order
+  detail::UninitializedVector<TriBox> tri_boxes;             // leaf order
+  detail::UninitializedVector<std::uint32_t> leaf_position;  // mesh triangle → place in `tris`
+  std::vector<Eigen::Vector3d> face_normals;                 // mesh order
+  std::vector<std::array<std::uint32_t, 3>> neighbours;      // across each edge (analyse_adjacency)
+  std::vector<Eigen::Vector3d> vertex_normals;               // angle-weighted
+  detail::CandidateGrid grid;                                // lists positions in `tris`
 
   std::vector<std::uint32_t> build(int threads);  // returns the leaf order (tris → mesh)
   void compute_pseudo_normals(int threads);
@@ -125,18 +127,18 @@ struct MeshIndex::Impl {
   }
 };
 
-// The grid's candidates first: when they hold an answer within the grid's reach it is exact
-// (candidate_grid.hpp), and so is "none" when the limit is within the reach. Otherwise the hint
-// (the previous query's triangle) and the hierarchy, bounded by what was found so far.
+// The hint (the previous query's triangle) first, for a tight bound; then the grid's candidates:
+// when they hold an answer within the grid's reach it is exact (candidate_grid.hpp), and so is
+// "none" when the limit is within the reach. Otherwise the hierarchy, bounded by what was found
+// so far.
 void MeshIndex::Impl::nearest(const Eigen::Vector3d& q, SurfacePoint& best,
                               std::uint32_t hint) const {
+  if (hint != kNoTriangle) test(q, tris[leaf_position[hint]], best);  // a tight bound first
   std::span<const std::uint32_t> cell;
   if (grid.candidates(q, cell)) {
-    if (hint != kNoTriangle) test(q, tris[leaf_position[hint]], best);  // a tight bound first
     test_cell(q, cell, best);
     if (best.sq_distance <= grid.reach() * grid.reach()) return;
   }
-  if (hint != kNoTriangle) test(q, tris[leaf_position[hint]], best);
   search(q, best);
 }
 
@@ -191,7 +193,7 @@ void MeshIndex::Impl::search(const Eigen::Vector3d& q, SurfacePoint& best) const
 
 std::vector<std::uint32_t> MeshIndex::Impl::build(int threads) {
   const std::size_t n = mesh.triangles.size();
-  std::vector<TriBox> boxes(n);  // mesh order
+  detail::UninitializedVector<TriBox> boxes(n);  // mesh order
   parallel_for(n, threads, [&](std::size_t t) {
     const auto& f = mesh.triangles[t];
     const Eigen::Vector3d lo =
@@ -226,7 +228,7 @@ std::vector<std::uint32_t> MeshIndex::Impl::build(int threads) {
 void MeshIndex::Impl::compute_pseudo_normals(int threads) {
   const std::size_t n = mesh.triangles.size();
   face_normals.resize(n);
-  std::vector<std::array<double, 3>> angles(n);  // each triangle's angle at each corner
+  detail::UninitializedVector<std::array<double, 3>> angles(n);  // each corner's angle
   parallel_for(n, threads, [&](std::size_t t) {
     const auto& f = mesh.triangles[t];
     const std::array<Eigen::Vector3d, 3> p = {mesh.vertices[f[0]], mesh.vertices[f[1]],
@@ -321,6 +323,32 @@ void MeshIndex::closest_points(const std::vector<Eigen::Vector3d>& points,
   impl_->batch(
       points.size(), [&](std::size_t k) { return std::size_t{order[k]}; }, points, T, bound,
       threads, sink);
+}
+
+void MeshIndex::closest_points(const std::vector<Eigen::Vector3d>& points,
+                               const Eigen::Isometry3d& T, double bound, int threads,
+                               const SurfaceSink& sink) const {
+  if (coherent_order(points)) {
+    impl_->batch(
+        points.size(), [](std::size_t k) { return k; }, points, T, bound, threads, sink);
+  } else {
+    closest_points(points, spatial_order(points, threads), T, bound, threads, sink);
+  }
+}
+
+bool MeshIndex::coherent_order(const std::vector<Eigen::Vector3d>& points) const {
+  constexpr std::size_t kPairs = 4096;
+  if (impl_->grid.empty() || points.size() < 2) return points.size() < 2;
+  const std::size_t pairs = std::min(kPairs, points.size() - 1);
+  std::vector<double> step;  // NaN coordinates give NaN steps: not coherent
+  step.reserve(pairs);
+  for (std::size_t k = 0; k < pairs; ++k) {
+    const std::size_t i = k * (points.size() - 1) / pairs;
+    const double d = (points[i + 1] - points[i]).norm();
+    step.push_back(std::isnan(d) ? std::numeric_limits<double>::infinity() : d);
+  }
+  std::nth_element(step.begin(), step.begin() + pairs / 2, step.end());
+  return step[pairs / 2] <= impl_->grid.cell();
 }
 
 const Eigen::Vector3d& MeshIndex::face_normal(std::uint32_t t) const {

@@ -349,12 +349,24 @@ TEST(KdTree, KeepsItsOwnCopyOfThePoints) {
   }
 }
 
+// 60 000 points: several chunks of spatial_order's first pass; most lie in a small cluster, so
+// that its buckets are large (sorted by counting) while the scattered rest leaves small ones
+// (sorted whole); and 300 duplicates.
+std::vector<Eigen::Vector3d> clustered_points() {
+  Random rng(78);
+  std::vector<Eigen::Vector3d> points(60000);
+  for (std::size_t i = 0; i < points.size(); ++i)
+    points[i] =
+        i % 8 == 0
+            ? Eigen::Vector3d(rng.uniform(-5, 5), rng.uniform(0, 2), rng.uniform(10, 11))
+            : Eigen::Vector3d(rng.uniform(1, 1.3), rng.uniform(0.5, 0.6), rng.uniform(10.2, 10.25));
+  for (int k = 0; k < 300; ++k) points.push_back(points[17 + 7 * k]);
+  return points;
+}
+
 // Oracle: the Morton key built bit by bit, and a stable sort by it.
 TEST(SpatialOrder, IsTheStableSortByInterleavedGridCoordinates) {
-  Random rng(78);
-  std::vector<Eigen::Vector3d> points(3000);
-  for (auto& p : points) p = {rng.uniform(-5, 5), rng.uniform(0, 2), rng.uniform(10, 11)};
-  points.push_back(points[17]);  // a duplicate keeps input order
+  const std::vector<Eigen::Vector3d> points = clustered_points();
   Eigen::AlignedBox3d box;
   for (const auto& p : points) box.extend(p);
   auto key = [&](const Eigen::Vector3d& p) {
@@ -372,7 +384,35 @@ TEST(SpatialOrder, IsTheStableSortByInterleavedGridCoordinates) {
     return key(points[a]) < key(points[b]);
   });
   EXPECT_EQ(spatial_order(points), expected);
-  EXPECT_EQ(spatial_order(points, 2), expected);  // keys computed on two threads
+  EXPECT_EQ(spatial_order(points, 2), expected);  // two threads
+  EXPECT_EQ(spatial_order(points, 3), expected);
+}
+
+// Points with a NaN or infinite coordinate leave the box and the others' order alone.
+TEST(SpatialOrder, NonFinitePointsDoNotMoveTheOthers) {
+  const std::vector<Eigen::Vector3d> finite = clustered_points();
+  const std::vector<std::uint32_t> expected = spatial_order(finite);  // checked by the oracle
+  const double inf = std::numeric_limits<double>::infinity();
+  const std::vector<Eigen::Vector3d> odd = {{std::nan(""), 0, 0}, {1, inf, 2}, {-inf, 0, inf}};
+  std::vector<Eigen::Vector3d> points;
+  std::vector<std::uint32_t> finite_index;  // for each of `points`, its place in `finite` or -1
+  for (std::size_t i = 0; i < finite.size(); ++i) {
+    if (i % 5000 == 0) {
+      points.push_back(odd[i / 5000 % odd.size()]);
+      finite_index.push_back(0xffffffffu);
+    }
+    points.push_back(finite[i]);
+    finite_index.push_back(static_cast<std::uint32_t>(i));
+  }
+  for (int threads : {1, 2}) {
+    const std::vector<std::uint32_t> order = spatial_order(points, threads);
+    std::vector<std::uint32_t> kept;
+    for (std::uint32_t i : order)
+      if (finite_index[i] != 0xffffffffu) kept.push_back(finite_index[i]);
+    EXPECT_EQ(order.size(), points.size());
+    EXPECT_EQ(kept, expected);
+  }
+  EXPECT_EQ(spatial_order(odd).size(), 3u);  // no finite point at all
 }
 
 TEST(SpatialOrder, HandlesEmptyFlatAndSinglePointInputs) {

@@ -136,11 +136,17 @@ TEST(MeshIndex, NearSurfaceQueriesMatchBruteForceOnTiltedFineMeshes) {
                            sunk[i] = p;
                            seen[i] = at;
                          });
+    std::vector<SurfacePoint> chosen(q.size());  // the order chosen by the index
+    index.closest_points(
+        q, Eigen::Isometry3d::Identity(), INFINITY, 2,
+        [&](std::size_t i, const Eigen::Vector3d&, const SurfacePoint& p) { chosen[i] = p; });
     for (std::size_t i = 0; i < q.size(); ++i) {
       const double truth = brute_sq_distance(index.mesh(), q[i]);
       ASSERT_NEAR(stored[i].sq_distance, truth, 1e-12 * (1 + truth)) << i;
       EXPECT_EQ(sunk[i].sq_distance, stored[i].sq_distance) << i;
       EXPECT_EQ(sunk[i].triangle, stored[i].triangle) << i;
+      EXPECT_EQ(chosen[i].sq_distance, stored[i].sq_distance) << i;
+      EXPECT_EQ(chosen[i].triangle, stored[i].triangle) << i;
       EXPECT_EQ(seen[i], q[i]);
     }
   }
@@ -149,6 +155,47 @@ TEST(MeshIndex, NearSurfaceQueriesMatchBruteForceOnTiltedFineMeshes) {
       index.closest_points({Eigen::Vector3d::Zero()}, {}, Eigen::Isometry3d::Identity(), 1, 1,
                            [](std::size_t, const Eigen::Vector3d&, const SurfacePoint&) {}),
       std::invalid_argument);
+}
+
+// A scanner's raster (rows of points a fraction of a triangle apart) is coherent in its own order
+// and searched in it; the same points shuffled are not, and are sorted first: the answers are the
+// same bits either way, and the brute force's.
+TEST(MeshIndex, RasterOrderIsSearchedAsGivenAndShuffledPointsAreSorted) {
+  const MeshIndex index(synth::sphere_mesh(4, 40), 2);
+  const double edge =
+      std::sqrt(surface_area(index.mesh()) / static_cast<double>(index.mesh().triangles.size()));
+  std::vector<Eigen::Vector3d> raster;  // rows of latitude, 0.2 edge apart along a row
+  const double step = 0.2 * edge / 4.02;
+  for (double lat = -1.4; lat < 1.4; lat += 0.1)
+    for (double lon = 0; lon < 2 * M_PI; lon += step / std::cos(lat))
+      raster.push_back(4.02 * Eigen::Vector3d(std::cos(lat) * std::cos(lon),
+                                              std::cos(lat) * std::sin(lon), std::sin(lat)));
+  std::vector<Eigen::Vector3d> shuffled = raster;
+  Random rng(13);
+  for (std::size_t i = shuffled.size() - 1; i > 0; --i)
+    std::swap(shuffled[i],
+              shuffled[static_cast<std::size_t>(rng.uniform(0, 1) * (i + 1)) % (i + 1)]);
+  EXPECT_TRUE(index.coherent_order(raster));
+  EXPECT_FALSE(index.coherent_order(shuffled));
+  std::vector<Eigen::Vector3d> with_nan = raster;
+  for (std::size_t i = 0; i < with_nan.size(); i += 2) with_nan[i].x() = std::nan("");
+  EXPECT_FALSE(index.coherent_order(with_nan));  // half the steps undefined
+  EXPECT_TRUE(index.coherent_order({Eigen::Vector3d::Zero()}));
+  for (const auto* points : {&raster, &shuffled}) {
+    std::vector<SurfacePoint> chosen(points->size()), stored;
+    index.closest_points(*points, Eigen::Isometry3d::Identity(), INFINITY, 2, stored);
+    index.closest_points(
+        *points, Eigen::Isometry3d::Identity(), INFINITY, 2,
+        [&](std::size_t i, const Eigen::Vector3d&, const SurfacePoint& p) { chosen[i] = p; });
+    for (std::size_t i = 0; i < points->size(); ++i) {
+      ASSERT_EQ(chosen[i].sq_distance, stored[i].sq_distance) << i;
+      ASSERT_EQ(chosen[i].triangle, stored[i].triangle) << i;
+      if (i % 97 == 0) {
+        const double truth = brute_sq_distance(index.mesh(), (*points)[i]);
+        ASSERT_NEAR(chosen[i].sq_distance, truth, 1e-12 * (1 + truth)) << i;
+      }
+    }
+  }
 }
 
 // The hierarchy's subtrees are built in parallel: an index built on one thread and one built on

@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
+#include <bit>
 #include <cmath>
 #include <functional>
 #include <map>
@@ -42,6 +44,62 @@ TEST(Mesh, CleanWeldsAnStlSoupIntoAClosedSolid) {
   EXPECT_TRUE(t.closed());
   EXPECT_EQ(t.inconsistent_edges, 0u);
   EXPECT_NEAR(t.signed_volume, 3, 1e-12);  // the L: three unit squares, height 1
+}
+
+// Welding (mesh.cpp, weld) against a brute-force oracle: 27 000 facets, each with its own three
+// corners (81 000 vertices), half the zeros written as −0, and 500 unused vertices first,
+// identical to used ones. The welded vertices are numbered in order of first use, each the
+// coordinates of its first corner.
+TEST(Mesh, WeldNumbersIdenticalVerticesByFirstUse) {
+  TriangleMesh grid;  // a height field over 150 × 90 quads, wound consistently: nothing to repair
+  auto corner = [](int i, int j, bool negative_zero) {
+    const double x = i == 0 && negative_zero ? -0.0 : i, y = j == 0 && negative_zero ? -0.0 : j;
+    return Eigen::Vector3d(x, y, 0.01 * ((i * 7 + j * 3) % 11));
+  };
+  for (int i = 0; i < 150; ++i)
+    for (int j = 0; j < 90; ++j)
+      for (const auto& tri : {std::array<std::array<int, 2>, 3>{{{0, 0}, {1, 0}, {1, 1}}},
+                              std::array<std::array<int, 2>, 3>{{{0, 0}, {1, 1}, {0, 1}}}}) {
+        std::array<std::uint32_t, 3> f;
+        for (int k = 0; k < 3; ++k) {
+          f[k] = static_cast<std::uint32_t>(grid.vertices.size());
+          grid.vertices.push_back(corner(i + tri[k][0], j + tri[k][1], (i + j + k) % 2 == 0));
+        }
+        grid.triangles.push_back(f);
+      }
+  TriangleMesh soup;
+  for (int k = 0; k < 500; ++k) soup.vertices.push_back(grid.vertices[(k * 977) % 81000]);
+  soup.vertices.insert(soup.vertices.end(), grid.vertices.begin(), grid.vertices.end());
+  for (auto f : grid.triangles) soup.triangles.push_back({f[0] + 500, f[1] + 500, f[2] + 500});
+
+  std::map<std::array<double, 3>, std::uint32_t> first;  // -0 == +0 as doubles: one key
+  TriangleMesh expected;
+  for (const auto& f : soup.triangles) {
+    std::array<std::uint32_t, 3> g;
+    for (int k = 0; k < 3; ++k) {
+      const Eigen::Vector3d& p = soup.vertices[f[k]];
+      const auto [at, added] =
+          first.try_emplace({p.x(), p.y(), p.z()}, static_cast<std::uint32_t>(first.size()));
+      if (added) expected.vertices.push_back(p);
+      g[k] = at->second;
+    }
+    expected.triangles.push_back(g);
+  }
+  for (int threads : {1, 2, 3}) {
+    MeshRepair r;
+    const TriangleMesh welded = clean_mesh(soup, &r, nullptr, threads);
+    EXPECT_EQ(r.welded_vertices, 81000 - expected.vertices.size());
+    EXPECT_EQ(r.dropped_triangles + r.flipped_triangles, 0u);
+    ASSERT_EQ(welded.vertices.size(), expected.vertices.size());
+    EXPECT_EQ(welded.triangles, expected.triangles);
+    auto bits = [](const Eigen::Vector3d& p) {  // the sign of a zero included
+      return std::array<std::uint64_t, 3>{std::bit_cast<std::uint64_t>(p.x()),
+                                          std::bit_cast<std::uint64_t>(p.y()),
+                                          std::bit_cast<std::uint64_t>(p.z())};
+    };
+    for (std::size_t v = 0; v < welded.vertices.size(); ++v)
+      ASSERT_EQ(bits(welded.vertices[v]), bits(expected.vertices[v])) << "vertex " << v;
+  }
 }
 
 TEST(Mesh, CleanRewindsFlippedTrianglesAndTurnsAnInsideOutSolidOutward) {

@@ -64,8 +64,9 @@ class KdTree {
 
 // The indices of `points` ordered along a Morton (Z-order) curve on a 1024³ grid over their
 // bounding box (a stable radix sort, O(n)): consecutive indices are close in space, so queries
-// issued in this order find the tree's nodes and points still in cache. `threads` (0: all cores)
-// compute the curve's keys; the order does not depend on it.
+// issued in this order find the tree's nodes and points still in cache. The box is the finite
+// points'; the others go anywhere without changing their order. `threads` (0: all cores) compute
+// the keys and sort; the order does not depend on it.
 std::vector<std::uint32_t> spatial_order(const std::vector<Eigen::Vector3d>& points,
                                          int threads = 1);
 

@@ -8,6 +8,7 @@
 #include <numeric>
 
 #include "detail/parallel.hpp"
+#include "detail/uninitialized.hpp"
 
 namespace align3d::detail {
 namespace {
@@ -73,7 +74,8 @@ struct Pending {  // a subtree left for the parallel stage
 
 class Builder {
  public:
-  Builder(std::vector<Ref>& refs, std::vector<std::uint32_t>& index, std::uint32_t leaf_size)
+  Builder(UninitializedVector<Ref>& refs, std::vector<std::uint32_t>& index,
+          std::uint32_t leaf_size)
       : refs_(refs), index_(index), leaf_size_(leaf_size) {}
 
   // Builds range r into nodes[node] and below. With `pending`, a range at depth `stop` is not
@@ -245,16 +247,16 @@ class Builder {
     return ((r.centre2() - centres.lo) * scale).cast<int>().min(kBins - 1);
   }
 
-  std::vector<Ref>& refs_;
+  UninitializedVector<Ref>& refs_;
   std::vector<std::uint32_t>& index_;
   std::uint32_t leaf_size_;
 };
 
 }  // namespace
 
-Bvh build_bvh(const std::vector<BvhBox>& boxes, std::uint32_t leaf_size, int threads) {
+Bvh build_bvh(std::span<const BvhBox> boxes, std::uint32_t leaf_size, int threads) {
   const std::size_t n = boxes.size();
-  std::vector<Ref> refs(n);
+  UninitializedVector<Ref> refs(n);  // filled below, in parallel
   Bvh bvh;
   bvh.order.resize(n);
   Range root{0, static_cast<std::uint32_t>(n), {}, {}};

@@ -8,6 +8,7 @@
 #pragma once
 
 #include <cstdint>
+#include <span>
 #include <vector>
 
 namespace align3d::detail {
@@ -33,7 +34,7 @@ struct Bvh {
 // At most `leaf_size` primitives a leaf, unless their centres coincide beyond kMaxSahDepth levels;
 // the tree is at most kMaxDepth deep, so fixed query stacks of kMaxDepth + 1 entries suffice.
 // `threads`: 0 for all cores; the tree does not depend on it. `boxes` must not be empty.
-Bvh build_bvh(const std::vector<BvhBox>& boxes, std::uint32_t leaf_size, int threads);
+Bvh build_bvh(std::span<const BvhBox> boxes, std::uint32_t leaf_size, int threads);
 
 // v in float, rounded down or up (a box rounded outwards still holds what it held).
 float round_down(double v);

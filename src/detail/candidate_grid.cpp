@@ -186,10 +186,13 @@ void CandidateGrid::lay_out(const Pairs& pairs, int threads) {
   auto cell_of = [&](std::uint32_t key) {
     return block_first_[key / kBlockCells] + key % kBlockCells;
   };
-  std::vector<std::uint32_t> next(cell_base[slices], 0);  // counts, then each cell's next slot
-  offsets_.assign(std::size_t{cell_base[slices]} + 1, 0);
+  // Sized uninitialised: each slice zeroes and fills its own cells, in parallel.
+  UninitializedVector<std::uint32_t> next(cell_base[slices]);  // counts, then each next slot
+  offsets_.resize(std::size_t{cell_base[slices]} + 1);
+  offsets_[0] = 0;
   entries_.resize(pairs.total);
   parallel_tasks(slices, threads, [&](std::size_t s) {
+    std::fill(next.begin() + cell_base[s], next.begin() + cell_base[s + 1], 0);
     slice_blocks(s, [&](std::uint32_t& first) { first += cell_base[s]; });
     for_pairs(s, [&](std::uint32_t key, std::uint32_t) { ++next[cell_of(key)]; });
     std::uint32_t start = entry_base[s];

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "align3d/mesh.hpp"
+#include "detail/uninitialized.hpp"
 
 namespace align3d::detail {
 
@@ -19,13 +20,14 @@ class CandidateGrid {
  public:
   CandidateGrid() = default;
   // The triangles mesh.triangles[order[i]]; the grid lists their positions i. Cells
-  // are cubes of side about √(area / triangles) (a few triangles a cell), and the reach a quarter
-  // cell; the grid stays below kMaxCells cells (coarser cells otherwise) and below kMaxEntries
-  // listed candidates (no grid otherwise: every query then uses the hierarchy).
+  // are cubes of side about 0.7 √(area / triangles) (a few triangles a cell), and the reach an
+  // eighth of a cell; the grid stays below kMaxCells cells (coarser cells otherwise) and below
+  // kMaxEntries listed candidates (no grid otherwise: every query then uses the hierarchy).
   CandidateGrid(const TriangleMesh& mesh, const std::vector<std::uint32_t>& order, double area,
                 int threads);
 
   double reach() const { return reach_; }
+  double cell() const { return cell_; }
   bool empty() const { return offsets_.empty(); }
   // The candidates of the cell holding q; false when q lies outside the grid (or there is none).
   bool candidates(const Eigen::Vector3d& q, std::span<const std::uint32_t>& out) const;
@@ -71,8 +73,8 @@ class CandidateGrid {
   std::int64_t dims_[3] = {0, 0, 0};        // cells per axis
   std::int64_t blocks_[3] = {0, 0, 0};      // blocks per axis
   std::vector<std::uint32_t> block_first_;  // a block's first cell in offsets_, or kNoBlock
-  std::vector<std::uint32_t> offsets_;  // cell k's candidates: entries_[offsets_[k], offsets_[k+1])
-  std::vector<std::uint32_t> entries_;
+  // cell k's candidates: entries_[offsets_[k], offsets_[k+1])
+  UninitializedVector<std::uint32_t> offsets_, entries_;
 };
 
 }  // namespace align3d::detail
