@@ -11,6 +11,7 @@
 #include <string>
 
 #include "detail/bucket_scatter.hpp"
+#include "detail/float_round.hpp"
 #include "detail/parallel.hpp"
 
 namespace align3d {
@@ -134,8 +135,8 @@ struct KdTree::Impl {
     node.begin = begin;
     node.end = end;
     for (int d = 0; d < 3; ++d) {
-      node.min[d] = round_down(cell.min()[d]);
-      node.max[d] = round_up(cell.max()[d]);
+      node.min[d] = detail::round_down(cell.min()[d]);
+      node.max[d] = detail::round_up(cell.max()[d]);
     }
     if (end - begin <= kLeafSize) return false;
     int dim = 0;
@@ -154,15 +155,6 @@ struct KdTree::Impl {
     node.high = right.cell.min()[dim];
     node.right = right.self;
     return true;
-  }
-
-  static float round_down(double x) {
-    const auto f = static_cast<float>(x);
-    return f > x ? std::nextafter(f, -std::numeric_limits<float>::infinity()) : f;
-  }
-  static float round_up(double x) {
-    const auto f = static_cast<float>(x);
-    return f < x ? std::nextafter(f, std::numeric_limits<float>::infinity()) : f;
   }
 
   // Result sets: worst() is the bound a point must beat (strictly) to be added; add(sq_d, k)

@@ -17,6 +17,7 @@
 #include <thread>
 #include <vector>
 
+#include "detail/float_round.hpp"
 #include "detail/random.hpp"
 
 namespace align3d {
@@ -347,6 +348,28 @@ TEST(KdTree, KeepsItsOwnCopyOfThePoints) {
     EXPECT_EQ(nb.sq_distance, best);
     EXPECT_EQ((kept[nb.index] - query).squaredNorm(), best);
   }
+}
+
+// The float bounds of the kd-tree's and the mesh hierarchy's boxes: the nearest float on the
+// right side of v, v itself when it is a float; beyond float's range, ±FLT_MAX or ±inf.
+TEST(FloatRound, GivesTheNearestFloatOnEachSide) {
+  Random rng(79);
+  std::vector<double> values = {0.0, -0.0, 1.0, 0.1, -0.1, 1e-45, 3.5e38, -3.5e38, 1e300, -1e300};
+  for (int k = 0; k < 2000; ++k)
+    values.push_back(rng.uniform(-1, 1) * std::pow(10, rng.uniform(-30, 30)));
+  for (double v : values) {
+    const float lo = detail::round_down(v), hi = detail::round_up(v);
+    EXPECT_LE(static_cast<double>(lo), v) << v;
+    EXPECT_GE(static_cast<double>(hi), v) << v;
+    if (static_cast<double>(static_cast<float>(v)) == v) {
+      EXPECT_EQ(lo, static_cast<float>(v));
+      EXPECT_EQ(hi, static_cast<float>(v));
+    } else {  // adjacent floats around v
+      EXPECT_EQ(std::nextafter(lo, std::numeric_limits<float>::infinity()), hi) << v;
+    }
+  }
+  EXPECT_EQ(detail::round_down(1e300), std::numeric_limits<float>::max());
+  EXPECT_EQ(detail::round_up(1e300), std::numeric_limits<float>::infinity());
 }
 
 // 60 000 points: several chunks of spatial_order's first pass; most lie in a small cluster, so

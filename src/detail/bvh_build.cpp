@@ -22,19 +22,6 @@ constexpr int kSerialDepth = 3;
 
 constexpr float kInf = std::numeric_limits<float>::infinity();
 
-}  // namespace
-
-float round_down(double v) {
-  const float f = static_cast<float>(v);
-  return static_cast<double>(f) <= v ? f : std::nextafter(f, -std::numeric_limits<float>::max());
-}
-float round_up(double v) {
-  const float f = static_cast<float>(v);
-  return static_cast<double>(f) >= v ? f : std::nextafter(f, std::numeric_limits<float>::max());
-}
-
-namespace {
-
 // Four lanes for three coordinates (the fourth stays 0): one SIMD min and max a box.
 struct FloatBox {
   Eigen::Array4f lo = Eigen::Array4f(kInf, kInf, kInf, 0);

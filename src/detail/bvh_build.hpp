@@ -11,6 +11,8 @@
 #include <span>
 #include <vector>
 
+#include "detail/float_round.hpp"
+
 namespace align3d::detail {
 
 // A node's box in float, rounded outwards, so it still contains its primitives: 24 bytes instead
@@ -21,7 +23,7 @@ struct BvhNode {
   std::uint32_t count;  // leaf: its primitives; 0: internal
 };
 
-// A primitive's bounds in float, rounded outwards (round_down, round_up below).
+// A primitive's bounds in float, rounded outwards (round_down, round_up: detail/float_round.hpp).
 struct BvhBox {
   float lo[3], hi[3];
 };
@@ -35,10 +37,6 @@ struct Bvh {
 // the tree is at most kMaxDepth deep, so fixed query stacks of kMaxDepth + 1 entries suffice.
 // `threads`: 0 for all cores; the tree does not depend on it. `boxes` must not be empty.
 Bvh build_bvh(std::span<const BvhBox> boxes, std::uint32_t leaf_size, int threads);
-
-// v in float, rounded down or up (a box rounded outwards still holds what it held).
-float round_down(double v);
-float round_up(double v);
 
 constexpr int kMaxSahDepth = 64;              // deeper ranges are halved by count
 constexpr int kMaxDepth = kMaxSahDepth + 32;  // halving 2^32 primitives takes 32 more levels
