@@ -271,8 +271,7 @@ TriangleMesh transformed(const TriangleMesh& mesh, const Eigen::Isometry3d& T) {
   return out;
 }
 
-double bounding_box_diagonal(const TriangleMesh& mesh) {
-  if (mesh.triangles.empty()) return 0;
+Eigen::AlignedBox3d bounding_box(const TriangleMesh& mesh) {
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
   Eigen::Vector3d hi = -lo;
   for (const Triangle& t : mesh.triangles)
@@ -280,7 +279,12 @@ double bounding_box_diagonal(const TriangleMesh& mesh) {
       lo = lo.cwiseMin(mesh.vertices[i]);
       hi = hi.cwiseMax(mesh.vertices[i]);
     }
-  return (hi - lo).norm();
+  return Eigen::AlignedBox3d(lo, hi);  // empty (lo > hi) for no triangle
+}
+
+double bounding_box_diagonal(const TriangleMesh& mesh) {
+  const Eigen::AlignedBox3d box = bounding_box(mesh);
+  return box.isEmpty() ? 0 : box.diagonal().norm();
 }
 
 double surface_area(const TriangleMesh& mesh) {

@@ -281,11 +281,12 @@ MeshIndex::MeshIndex(const TriangleMesh& mesh, int threads, const std::string& w
     throw DataError(what, "no triangle of non-zero area (all " +
                               std::to_string(mesh.triangles.size()) + " are degenerate)");
   impl_->topology = adjacency.topology;
-  impl_->diagonal = bounding_box_diagonal(impl_->mesh);
+  const Eigen::AlignedBox3d box = bounding_box(impl_->mesh);  // the mesh is not empty
+  impl_->diagonal = box.diagonal().norm();
   impl_->neighbours = std::move(adjacency.neighbours);
   impl_->compute_pseudo_normals(threads);
   const std::vector<std::uint32_t> order = impl_->build(threads);
-  impl_->grid = detail::CandidateGrid(impl_->mesh, order, surface_area(impl_->mesh), threads);
+  impl_->grid = detail::CandidateGrid(impl_->mesh, order, box, surface_area(impl_->mesh), threads);
 }
 
 MeshIndex::~MeshIndex() = default;

@@ -29,8 +29,10 @@ struct TriangleMesh {
 // T·mesh: vertices moved rigidly (T must be rigid, so windings keep their meaning).
 TriangleMesh transformed(const TriangleMesh& mesh, const Eigen::Isometry3d& T);
 
-// The axis-aligned bounding box diagonal of the vertices the triangles use (0 for no triangle):
-// the part's size, which the mesh defaults (chord tolerance, sampling, outlier distance) follow.
+// The axis-aligned bounding box of the vertices the triangles use (empty for no triangle), and its
+// diagonal (0 for no triangle): the part's size, which the mesh defaults (chord tolerance,
+// sampling, outlier distance) follow.
+Eigen::AlignedBox3d bounding_box(const TriangleMesh& mesh);
 double bounding_box_diagonal(const TriangleMesh& mesh);
 
 double surface_area(const TriangleMesh& mesh);

@@ -78,20 +78,15 @@ class SeparatingAxes {
 }  // namespace
 
 CandidateGrid::CandidateGrid(const TriangleMesh& mesh, const std::vector<std::uint32_t>& order,
-                             double area, int threads) {
+                             const Eigen::AlignedBox3d& box, double area, int threads) {
   if (order.empty() || !(area > 0)) return;
-  size_cells(mesh, area / static_cast<double>(order.size()));
+  size_cells(box, area / static_cast<double>(order.size()));
   const Pairs pairs = list(mesh, order, threads);
   if (pairs.total <= kMaxEntries) lay_out(pairs, threads);  // else no grid: the hierarchy answers
 }
 
-void CandidateGrid::size_cells(const TriangleMesh& mesh, double mean_area) {
-  Eigen::Vector3d lo = mesh.vertices[mesh.triangles[0][0]], hi = lo;
-  for (const auto& t : mesh.triangles)
-    for (std::uint32_t v : t) {
-      lo = lo.cwiseMin(mesh.vertices[v]);
-      hi = hi.cwiseMax(mesh.vertices[v]);
-    }
+void CandidateGrid::size_cells(const Eigen::AlignedBox3d& box, double mean_area) {
+  const Eigen::Vector3d lo = box.min(), hi = box.max();
   cell_ = kCellsPerTriangleSide * std::sqrt(mean_area);
   cell_ = std::max(cell_, 1e-9 * (hi - lo).norm());
   for (;;) {  // coarser cells until the grid fits

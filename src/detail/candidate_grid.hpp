@@ -23,8 +23,9 @@ class CandidateGrid {
   // are cubes of side about 0.7 √(area / triangles) (a few triangles a cell), and the reach an
   // eighth of a cell; the grid stays below kMaxCells cells (coarser cells otherwise) and below
   // kMaxEntries listed candidates (no grid otherwise: every query then uses the hierarchy).
-  CandidateGrid(const TriangleMesh& mesh, const std::vector<std::uint32_t>& order, double area,
-                int threads);
+  // `box`: bounding_box(mesh).
+  CandidateGrid(const TriangleMesh& mesh, const std::vector<std::uint32_t>& order,
+                const Eigen::AlignedBox3d& box, double area, int threads);
 
   double reach() const { return reach_; }
   double cell() const { return cell_; }
@@ -47,7 +48,7 @@ class CandidateGrid {
     std::vector<std::vector<std::uint32_t>> of;  // [chunk × slices + slice]: key, triangle, ...
     std::size_t slice(std::uint32_t key) const { return key / kBlockCells / per_slice; }
   };
-  void size_cells(const TriangleMesh& mesh, double mean_area);
+  void size_cells(const Eigen::AlignedBox3d& box, double mean_area);
   Pairs list(const TriangleMesh& mesh, const std::vector<std::uint32_t>& order, int threads) const;
   void lay_out(const Pairs& pairs, int threads);
 
