@@ -1,5 +1,6 @@
 #include "align3d/find.hpp"
 
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -25,15 +26,15 @@ double ms_since(Clock::time_point start) {
 }
 
 // Every distance below is a multiple of the model's voxel (a share of its diameter).
-constexpr std::size_t kMaxHypotheses = 96;
-constexpr double kPlaneShare = 0.2;       // a plane with this share of the scene is the floor
+constexpr std::size_t kMaxHypotheses = 400;
+constexpr std::size_t kHypothesesPerPlace = 8;  // ppf_hypotheses' max_per_place
+constexpr double kPlaneShare = 0.2;             // a plane with this share of the scene is the floor
 constexpr int kMaxPlanes = 3;             // planes removed at most (ground, bin floor, a table)
 constexpr double kPlaneVoxels = 0.5;      // RANSAC's inlier distance for the floor
 constexpr double kExplainVoxels = 0.75;   // a scene point this near explains a model point
 constexpr double kFreeSpaceVoxels = 1.5;  // scene this far behind a model point: seen through it
 constexpr double kRefineNormalDeg = 45;   // scene and model normals of a refined pair
 constexpr double kVerifyNormalDeg = 45;   // scene and model normals of an explained point
-constexpr double kMinVisible = 0.3;       // a hypothesis less visible than this scores −1
 constexpr double kMinFacing = 0.26;       // cos 75°: steeper surfaces return nothing (sensors)
 constexpr double kSymmetryVoxels = 0.1;   // mean misfit of a turn that counts as a symmetry
 // The disc each model point covers in its view: wide enough to close the gaps between the points
@@ -42,6 +43,10 @@ constexpr double kSplatVoxels = 0.75;
 constexpr double kMinExplainedShare = 0.1;  // of the visible model points, and at least:
 constexpr std::size_t kMinExplained = 10;
 constexpr double kMinSceneShare = 0.5;  // scene extent / model diameter below this: an error
+// surface_overhang: explained points this flat (RMS off their plane, in explain distances) are
+// one face; its plane reaching this share of the footprint's pixels outside it: a larger surface.
+constexpr double kFlatExplains = 1.0 / 3;
+constexpr double kOverhangShare = 0.5;
 
 std::string number(double value) {
   char text[32];
@@ -65,6 +70,7 @@ struct Prepared {
   RangeImage image;
   std::vector<Eigen::Vector3d> points;
   std::vector<char> in_range;
+  std::vector<char> on_plane;  // removed with the floor for voting (verification sees it)
   PointCloud voting;
   std::unique_ptr<KdTree> voting_tree;
   std::size_t depth_dropped = 0, plane_points = 0;
@@ -101,6 +107,7 @@ bool remove_floor(Prepared& prep, std::vector<std::size_t>& kept, double voxel,
   std::erase_if(kept, [&](std::size_t i) {
     const bool on = std::abs(plane.plane.signed_distance(prep.points[i])) <= band;
     prep.plane_points += on ? 1 : 0;
+    prep.on_plane[i] = on ? 1 : 0;
     return on;
   });
   return true;
@@ -117,6 +124,7 @@ Prepared prepare_scene(const FindScene& scene, const PpfModel& model, const Find
   const Eigen::Isometry3d T_camera_cloud = prep.image.T_cloud_camera.inverse();
   prep.points.resize(scene.cloud.size());
   prep.in_range.resize(scene.cloud.size());
+  prep.on_plane.assign(scene.cloud.size(), 0);
   std::vector<std::size_t> kept;
   for (std::size_t i = 0; i < scene.cloud.size(); ++i) {
     prep.points[i] = T_camera_cloud * scene.cloud.positions[i];
@@ -157,9 +165,10 @@ struct Evidence {
   std::size_t visible = 0, explained = 0, seen_through = 0, occluded = 0, missing = 0;
   std::vector<std::uint32_t> pixels;  // where the explained points were matched
   double continuation = 0;            // outline_continuation
+  bool larger_surface = false;        // surface_overhang
   double score(std::size_t explained_free) const {
     const double seen = std::max<double>(1, static_cast<double>(visible - missing - occluded));
-    if (visible_fraction() < kMinVisible) return -1;
+    if (visible_fraction() < kFindMinVisible || larger_surface) return -1;
     return (static_cast<double>(explained_free) - static_cast<double>(seen_through)) / seen -
            continuation;
   }
@@ -295,6 +304,62 @@ bool agrees(const Prepared& prep, const Eigen::Vector3d& s, const Eigen::Vector3
   return prep.voting.normals[nn.index].dot(n) >= min_cos;
 }
 
+// Whether the explained scene points lie on one plane that goes on well beyond the model's
+// footprint in the image (the owners' pixels and their outline ring): a face of the part matched
+// into a larger surface, a plate into the bin's wall beside the floor, where the outline test sees
+// the floor. The plane is grown over 4-connected pixels from the explained ones, through scene
+// points within `explain` of it and within the diameter of their centroid, not those of a removed
+// plane (a plate lying on the floor is parallel to it, a plate's thickness above).
+bool surface_overhang(const ModelView& view, const std::vector<std::uint32_t>& explained_pixels,
+                      const Prepared& prep, double explain, double diameter) {
+  const RangeImage& image = prep.image;
+  if (explained_pixels.size() < kMinExplained) return false;
+  const auto at_pixel = [&](std::uint32_t px) -> const Eigen::Vector3d& {
+    return prep.points[static_cast<std::size_t>(image.point[px])];
+  };
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (std::uint32_t px : explained_pixels) mean += at_pixel(px);
+  mean /= static_cast<double>(explained_pixels.size());
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (std::uint32_t px : explained_pixels) {
+    const Eigen::Vector3d d = at_pixel(px) - mean;
+    cov += d * d.transpose();
+  }
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(
+      cov / static_cast<double>(explained_pixels.size()));
+  if (std::sqrt(std::max(0.0, eig.eigenvalues()(0))) > kFlatExplains * explain) return false;
+  const Eigen::Vector3d normal = eig.eigenvectors().col(0);
+  // The flood fill's marks, per thread, cleared after use (the image is large, the fill small).
+  thread_local std::vector<char> seen;
+  seen.resize(image.depth.size(), 0);
+  std::vector<std::uint32_t> stack(explained_pixels), touched(explained_pixels);
+  for (std::uint32_t px : stack) seen[px] = 1;
+  std::size_t inside = 0, outside = 0;
+  while (!stack.empty()) {
+    const std::uint32_t px = stack.back();
+    stack.pop_back();
+    const int u = static_cast<int>(px % static_cast<std::uint32_t>(image.width));
+    const int v = static_cast<int>(px / static_cast<std::uint32_t>(image.width));
+    ++(view.inside(u, v) && view.owner[view.at(u, v)] >= 0 ? inside : outside);
+    for (const auto& [du, dv] : {std::pair{1, 0}, {-1, 0}, {0, 1}, {0, -1}}) {
+      if (u + du < 0 || v + dv < 0 || u + du >= image.width || v + dv >= image.height) continue;
+      const auto next = static_cast<std::uint32_t>(image.pixel(u + du, v + dv));
+      if (seen[next]) continue;
+      seen[next] = 1;
+      touched.push_back(next);
+      const std::int32_t q = image.point[next];
+      if (q < 0 || !prep.in_range[static_cast<std::size_t>(q)] ||
+          prep.on_plane[static_cast<std::size_t>(q)])
+        continue;
+      const Eigen::Vector3d& x = prep.points[static_cast<std::size_t>(q)];
+      if (std::abs(normal.dot(x - mean)) <= explain && (x - mean).norm() <= diameter)
+        stack.push_back(next);
+    }
+  }
+  for (std::uint32_t px : touched) seen[px] = 0;
+  return static_cast<double>(outside) > kOverhangShare * static_cast<double>(inside);
+}
+
 Evidence verify(const PpfModel& model, const Prepared& prep,
                 const Eigen::Isometry3d& T_camera_model) {
   const RangeImage& image = prep.image;
@@ -315,6 +380,7 @@ Evidence verify(const PpfModel& model, const Prepared& prep,
   for (std::size_t i : view.visible) {
     ++ev.visible;
     double best = std::numeric_limits<double>::infinity(), nearest_z = best;
+    bool nearest_on_plane = false;
     std::size_t best_pixel = 0;
     for (int dv = -1; dv <= 1; ++dv)
       for (int du = -1; du <= 1; ++du) {
@@ -324,7 +390,8 @@ Evidence verify(const PpfModel& model, const Prepared& prep,
         const std::int32_t q = image.point[at];
         if (q < 0 || !prep.in_range[static_cast<std::size_t>(q)]) continue;
         const Eigen::Vector3d& s = prep.points[static_cast<std::size_t>(q)];
-        nearest_z = std::min(nearest_z, s.z());
+        if (s.z() < nearest_z)
+          nearest_z = s.z(), nearest_on_plane = prep.on_plane[static_cast<std::size_t>(q)] != 0;
         const double d = (s - p[i]).norm();
         if (d < best) best = d, best_pixel = at;
       }
@@ -334,13 +401,16 @@ Evidence verify(const PpfModel& model, const Prepared& prep,
       ev.pixels.push_back(static_cast<std::uint32_t>(best_pixel));
     } else if (!std::isfinite(nearest_z)) {
       ++ev.missing;
-    } else if (nearest_z > p[i].z() + free) {
+    } else if (nearest_z > p[i].z() + free ||
+               (nearest_z < p[i].z() - explain && nearest_on_plane)) {
+      // Seen through, or hidden by the floor: the part would lie inside it.
       ++ev.seen_through;
     } else if (nearest_z < p[i].z() - explain) {
       ++ev.occluded;
     }
   }
   if (!view.visible.empty()) ev.continuation = outline_continuation(view, p, prep, explain, margin);
+  ev.larger_surface = surface_overhang(view, ev.pixels, prep, explain, model.diameter);
   return ev;
 }
 
@@ -556,9 +626,9 @@ FindResult find(const PpfModel& model, const FindScene& scene, const FindSetting
 
   auto lap = Clock::now();
   const std::vector<PpfHypothesis> votes =
-      prep.voting.size() >= 10
-          ? ppf_hypotheses(model, prep.voting, result.symmetry, kMaxHypotheses, threads)
-          : std::vector<PpfHypothesis>{};
+      prep.voting.size() >= 10 ? ppf_hypotheses(model, prep.voting, result.symmetry, kMaxHypotheses,
+                                                threads, kHypothesesPerPlace)
+                               : std::vector<PpfHypothesis>{};
   result.hypotheses = votes.size();
   result.vote_ms = ms_since(lap);
 
@@ -593,6 +663,10 @@ FindResult find(const PpfModel& model, const FindScene& scene, const FindSetting
     out.points = instance_points(model, model_tree, prep, T);
     out.explained = out.points.size();
   });
+  // The last ICP moves a pose onto its scene points; when that lowers the score below min_score,
+  // the hypothesis only looked right at its coarser pose: not an instance.
+  std::erase_if(result.instances,
+                [&](const FoundInstance& f) { return f.score < settings.min_score; });
   std::stable_sort(
       result.instances.begin(), result.instances.end(),
       [](const FoundInstance& a, const FoundInstance& b) { return a.score > b.score; });

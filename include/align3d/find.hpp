@@ -11,26 +11,35 @@
 //      floor). The rest is downsampled with the model's voxel; normals are turned toward the
 //      camera, the side from which the outward normals of the visible model surface point too.
 //   3. Hypotheses: PPF voting (coarse/ppf.hpp, ppf_hypotheses) with neighbour-bin lookups, one
-//      vote per model-scene pair and several peaks per scene reference point, clustered poses,
-//      each refined by ICP onto the model (icp/icp.hpp) of the scene points on its surface (near
-//      a model point whose normal agrees with theirs; a touching neighbour does not pull it).
+//      vote per model-scene pair and several peaks per scene reference point, clustered poses:
+//      the 400 strongest clusters, at most 8 of them in one place (a quarter of the diameter), so
+//      a well-seen part's many wrongly turned clusters do not crowd out a less-seen part's. Each
+//      is refined by ICP onto the model (icp/icp.hpp) of the scene points on its surface (near a
+//      model point whose normal agrees with theirs; a touching neighbour does not pull it).
 //   4. Verification against the depth image (range_image.hpp): the model points the camera would
 //      see at the pose (facing it, not hidden behind the part itself) are compared with the scene
 //      at their pixels. Explained: a scene point within a distance; seen through: the scene lies
-//      farther, so the hypothesised part would hide it (free-space violation); occluded:
-//      something lies in front; missing: no return. Outline continuation: the share of the ring
+//      farther, so the hypothesised part would hide it (free-space violation), or a removed
+//      plane (the floor) lies in front, so the part would be inside it; occluded: something
+//      else lies in front; missing: no return. Outline continuation: the share of the ring
 //      just outside the part's outline where the scene surface goes on without a depth edge (a
 //      face fitted into a box's top, the floor or a wall). Explained needs the scene's normal
 //      there within 45° of the model's, and the outline counts only where the part is explained
 //      (a neighbour lying on it is no evidence). score = (explained − seen through) / (visible −
 //      missing − occluded) − continuation: what a part partly under its neighbours shows is judged
-//      as a whole part's; visible_fraction = 1 − occluded / (visible − missing), and a pose
-//      less than 30 % visible scores −1.
+//      as a whole part's; visible_fraction = 1 − occluded / (visible − missing). A pose scores
+//      −1 when it is less than 40 % visible, or when the scene points it explains lie on one
+//      plane (RMS below a third of the explain distance) that, grown through the depth image,
+//      covers more than half as many pixels outside the part's outline as inside: one face of
+//      the part matched into a larger surface (a plate into the bin's wall, where the outline
+//      ring falls on the floor and cannot tell).
 //   5. Non-maximum suppression, best score first: each accepted instance claims the scene pixels
 //      of its surface; a later hypothesis is scored again on its explained pixels still free and
 //      dropped below min_score. So one part is reported once, whatever its symmetry. Each
-//      accepted pose gets a last ICP on its scene points; poses of a symmetric part are reported
-//      in a canonical form (symmetry.hpp).
+//      accepted pose gets a last ICP on its scene points and is scored again there (on at most
+//      the explained points it had); one that falls below min_score is dropped (so fewer than
+//      max_instances may be reported when the limit was reached). Poses of a symmetric part are
+//      reported in a canonical form (symmetry.hpp).
 //
 // Units: every distance default is a share of the model's diameter, so the same data in mm or m
 // give the same instances. The same inputs and settings give the same result at any thread count.
@@ -57,6 +66,7 @@ namespace align3d {
 // Defaults, declared once (CLI, Python and docs read them from here).
 inline constexpr double kFindVoxelFraction = 0.05;  // model voxel / model diameter
 inline constexpr double kFindMinScore = 0.6;
+inline constexpr double kFindMinVisible = 0.4;           // a pose less visible scores −1 (step 4)
 inline constexpr std::size_t kFindModelSamples = 20000;  // area-uniform samples of a mesh model
 
 struct FindSettings {

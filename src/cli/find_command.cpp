@@ -1,7 +1,9 @@
 // align3d find MODEL SCENE: find() (find.hpp) from the command line (README, "Pick parts from a
 // bin"; the report's keys: docs/report.md, "find").
+#include <cmath>
 #include <cstdio>
 #include <iomanip>
+#include <string>
 
 #include "align3d/error.hpp"
 #include "align3d/find.hpp"
@@ -131,7 +133,10 @@ Command add_find(CLI::App& app, Streams io) {
                   "Accept instances scoring at least S: the share of the part's unoccluded "
                   "visible surface the scene explains (normals agreeing), less what is seen "
                   "through it and the share of its outline the scene's surface continues past; "
-                  "parts less than 30 % visible are not reported")
+                  "parts less than " +
+                      std::to_string(std::lround(100 * kFindMinVisible)) +
+                      " % visible, or whose explained surface is one face of a larger surface, "
+                      "are not reported")
       ->check(CLI::Range(1e-6, 1.0))
       ->capture_default_str();
   sub->add_option("--symmetry", o->symmetry,

@@ -751,7 +751,8 @@ PpfModel load_ppf_model(const std::filesystem::path& path) {
 
 namespace {
 
-constexpr double kSpreadMargin = 0.25;  // a neighbouring bin is looked up within this of the edge
+constexpr double kSpreadMargin = 0.25;    // a neighbouring bin is looked up within this of the edge
+constexpr double kPlaceDiameters = 0.25;  // ppf_hypotheses: one place, in model diameters
 constexpr std::size_t kMaxDenseKeys = std::size_t{1} << 24;
 
 // The table as the voting of many instances reads it: the bucket of every feature key through a
@@ -873,7 +874,7 @@ PointCloud ppf_scene(const PointCloud& scene, double voxel, const Eigen::Vector3
 
 std::vector<PpfHypothesis> ppf_hypotheses(const PpfModel& model, const PointCloud& scene,
                                           const Symmetry& symmetry, std::size_t max_hypotheses,
-                                          int threads) {
+                                          int threads, std::size_t max_per_place) {
   if (!model.outward || !(model.voxel > 0) || model.angle_bins == 0 ||
       model.points.size() < kMinPoints || !model.points.has_normals() ||
       model.offsets.size() != model.keys.size() + 1)
@@ -897,12 +898,24 @@ std::vector<PpfHypothesis> ppf_hypotheses(const PpfModel& model, const PointClou
   for (Candidate& c : candidates) c.T = canonical_pose(c.T.inverse(), symmetry);
   const Eigen::Vector3d model_centre = centroid(model.points);
   const std::vector<Cluster> clusters = cluster_poses(candidates, model_centre, model.voxel);
+  // Places: where the first hypothesis of each put the model's centroid, and how many it holds.
+  // A linear scan: there are at most max_hypotheses places, and a few thousand clusters.
+  std::vector<std::pair<Eigen::Vector3d, std::size_t>> places;
+  const double place_radius = kPlaceDiameters * model.diameter;
   std::vector<PpfHypothesis> out;
   for (std::size_t c = 0; c < clusters.size() && out.size() < max_hypotheses; ++c) {
     const Cluster& cl = clusters[c];
+    const Eigen::Vector3d centre = cl.x_sum / cl.votes;
+    if (max_per_place > 0) {
+      auto place = std::find_if(places.begin(), places.end(), [&](const auto& p) {
+        return (p.first - centre).norm() <= place_radius;
+      });
+      if (place == places.end()) place = places.insert(places.end(), {centre, 0});
+      if (place->second++ >= max_per_place) continue;
+    }
     Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
     T.linear() = Eigen::Quaterniond(Eigen::Vector4d(cl.q_sum.normalized())).toRotationMatrix();
-    T.translation() = cl.x_sum / cl.votes - T.linear() * model_centre;
+    T.translation() = centre - T.linear() * model_centre;
     out.push_back({T, cl.votes});
   }
   return out;

@@ -104,7 +104,11 @@ GlobalResult ppf_register(const PointCloud& source, const PointCloud& target,
 // highest cells become poses, the poses are clustered (12°, 2 voxels; for a symmetric part after
 // turning each to its canonical form, symmetry.hpp, so the votes for one instance are not spread
 // over its equivalent poses) and the clusters with the most votes returned, at most
-// `max_hypotheses`, most votes first. Same result whatever the thread count.
+// `max_hypotheses`, most votes first. With `max_per_place` > 0 a cluster is skipped when that many
+// stronger ones already put the model's centroid within a quarter of its diameter of the place
+// where the first of them put it: a well-seen part draws dozens of clusters (its faces matched
+// at wrong turns), and without a cap they fill the list before a less-seen part gets one. Same
+// result whatever the thread count.
 
 // Voxel centroids of the scene with PCA normals (as the model's) turned toward `viewpoint`.
 // Throws DataError("scene", …) with fewer than 10 points after downsampling or all on a line.
@@ -119,6 +123,6 @@ struct PpfHypothesis {
 // std::invalid_argument for a model without outward normals or inconsistent.
 std::vector<PpfHypothesis> ppf_hypotheses(const PpfModel& model, const PointCloud& scene,
                                           const Symmetry& symmetry, std::size_t max_hypotheses,
-                                          int threads = 0);
+                                          int threads = 0, std::size_t max_per_place = 0);
 
 }  // namespace align3d
