@@ -47,6 +47,8 @@ constexpr double kMinSceneShare = 0.5;  // scene extent / model diameter below t
 // one face; its plane reaching this share of the footprint's pixels outside it: a larger surface.
 constexpr double kFlatExplains = 1.0 / 3;
 constexpr double kOverhangShare = 0.5;
+constexpr double kFaceDeg = 20;      // any_face_overhangs: normals of one face
+constexpr double kFaceShare = 0.25;  // of the explained points: a face worth testing
 
 std::string number(double value) {
   char text[32];
@@ -165,7 +167,7 @@ struct Evidence {
   std::size_t visible = 0, explained = 0, seen_through = 0, occluded = 0, missing = 0;
   std::vector<std::uint32_t> pixels;  // where the explained points were matched
   double continuation = 0;            // outline_continuation
-  bool larger_surface = false;        // surface_overhang
+  bool larger_surface = false;        // any_face_overhangs
   double score(std::size_t explained_free) const {
     const double seen = std::max<double>(1, static_cast<double>(visible - missing - occluded));
     if (visible_fraction() < kFindMinVisible || larger_surface) return -1;
@@ -360,6 +362,31 @@ bool surface_overhang(const ModelView& view, const std::vector<std::uint32_t>& e
   return static_cast<double>(outside) > kOverhangShare * static_cast<double>(inside);
 }
 
+// Whether one of the part's faces the scene explains is a face of a larger surface
+// (surface_overhang): the explained pixels grouped by their model point's normal (within
+// kFaceDeg of the group's first), each group holding kFaceShare of them tested. One face at a
+// time: the bracket's L fitted into the bin's inner corner explains two walls, neither of which
+// ends where the part does.
+bool any_face_overhangs(const ModelView& view, const std::vector<Eigen::Vector3d>& n,
+                        const std::vector<std::size_t>& explained_model,
+                        const std::vector<std::uint32_t>& pixels, const Prepared& prep,
+                        double explain, double diameter) {
+  const double min_cos = std::cos(deg_to_rad(kFaceDeg));
+  std::vector<std::pair<Eigen::Vector3d, std::vector<std::uint32_t>>> faces;
+  for (std::size_t k = 0; k < pixels.size(); ++k) {
+    const Eigen::Vector3d& normal = n[explained_model[k]];
+    auto face = std::find_if(faces.begin(), faces.end(),
+                             [&](const auto& f) { return f.first.dot(normal) >= min_cos; });
+    if (face == faces.end()) face = faces.insert(faces.end(), {normal, {}});
+    face->second.push_back(pixels[k]);
+  }
+  return std::any_of(faces.begin(), faces.end(), [&](const auto& f) {
+    return static_cast<double>(f.second.size()) >=
+               kFaceShare * static_cast<double>(pixels.size()) &&
+           surface_overhang(view, f.second, prep, explain, diameter);
+  });
+}
+
 Evidence verify(const PpfModel& model, const Prepared& prep,
                 const Eigen::Isometry3d& T_camera_model) {
   const RangeImage& image = prep.image;
@@ -377,6 +404,7 @@ Evidence verify(const PpfModel& model, const Prepared& prep,
   ModelView view = view_model(p, n, image, voxel, margin);
   const std::vector<Eigen::Vector2i>& uv = view.uv;
   Evidence ev;
+  std::vector<std::size_t> explained_model;
   for (std::size_t i : view.visible) {
     ++ev.visible;
     double best = std::numeric_limits<double>::infinity(), nearest_z = best;
@@ -399,6 +427,7 @@ Evidence verify(const PpfModel& model, const Prepared& prep,
         agrees(prep, prep.points[static_cast<std::size_t>(image.point[best_pixel])], n[i], voxel)) {
       ++ev.explained;
       ev.pixels.push_back(static_cast<std::uint32_t>(best_pixel));
+      explained_model.push_back(i);
     } else if (!std::isfinite(nearest_z)) {
       ++ev.missing;
     } else if (nearest_z > p[i].z() + free ||
@@ -410,7 +439,8 @@ Evidence verify(const PpfModel& model, const Prepared& prep,
     }
   }
   if (!view.visible.empty()) ev.continuation = outline_continuation(view, p, prep, explain, margin);
-  ev.larger_surface = surface_overhang(view, ev.pixels, prep, explain, model.diameter);
+  ev.larger_surface =
+      any_face_overhangs(view, n, explained_model, ev.pixels, prep, explain, model.diameter);
   return ev;
 }
 

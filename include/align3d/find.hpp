@@ -28,11 +28,13 @@
 //      (a neighbour lying on it is no evidence). score = (explained − seen through) / (visible −
 //      missing − occluded) − continuation: what a part partly under its neighbours shows is judged
 //      as a whole part's; visible_fraction = 1 − occluded / (visible − missing). A pose scores
-//      −1 when it is less than 40 % visible, or when the scene points it explains lie on one
-//      plane (RMS below a third of the explain distance) that, grown through the depth image,
-//      covers more than half as many pixels outside the part's outline as inside: one face of
-//      the part matched into a larger surface (a plate into the bin's wall, where the outline
-//      ring falls on the floor and cannot tell).
+//      −1 when it is less than 40 % visible, or when the scene points one of its faces explains
+//      (grouped by the model normal, within 20°; a face holding a quarter of the explained
+//      points) lie on one plane (RMS below a third of the explain distance) that, grown through
+//      the depth image, covers more than half as many pixels outside the part's outline as
+//      inside: a face of the part matched into a larger surface (a plate into the bin's wall,
+//      where the outline ring falls on the floor and cannot tell; the bracket's L into the
+//      bin's inner corner).
 //   5. Non-maximum suppression, best score first: each accepted instance claims the scene pixels
 //      of its surface; a later hypothesis is scored again on its explained pixels still free and
 //      dropped below min_score. So one part is reported once, whatever its symmetry. Each
