@@ -307,13 +307,15 @@ bool agrees(const Prepared& prep, const Eigen::Vector3d& s, const Eigen::Vector3
 }
 
 // Whether the explained scene points lie on one plane that goes on well beyond the model's
-// footprint in the image (the owners' pixels and their outline ring): a face of the part matched
-// into a larger surface, a plate into the bin's wall beside the floor, where the outline test sees
-// the floor. The plane is grown over 4-connected pixels from the explained ones, through scene
-// points within `explain` of it and within the diameter of their centroid, not those of a removed
-// plane (a plate lying on the floor is parallel to it, a plate's thickness above).
-bool surface_overhang(const ModelView& view, const std::vector<std::uint32_t>& explained_pixels,
-                      const Prepared& prep, double explain, double diameter) {
+// footprint in the image (the owners' pixels and their outline ring, `footprint` of them): a
+// face of the part matched into a larger surface, a plate into the bin's wall beside the floor,
+// where the outline test sees the floor. The plane is grown over 4-connected pixels from the
+// explained ones, through scene points within `explain` of it and within the diameter of their
+// centroid, not those of a removed plane (a plate lying on the floor is parallel to it, a plate's
+// thickness above).
+bool surface_overhang(const ModelView& view, std::size_t footprint,
+                      const std::vector<std::uint32_t>& explained_pixels, const Prepared& prep,
+                      double explain, double diameter) {
   const RangeImage& image = prep.image;
   if (explained_pixels.size() < kMinExplained) return false;
   const auto at_pixel = [&](std::uint32_t px) -> const Eigen::Vector3d& {
@@ -337,7 +339,9 @@ bool surface_overhang(const ModelView& view, const std::vector<std::uint32_t>& e
   std::vector<std::uint32_t> stack(explained_pixels), touched(explained_pixels);
   for (std::uint32_t px : stack) seen[px] = 1;
   std::size_t inside = 0, outside = 0;
-  while (!stack.empty()) {
+  // Inside cannot pass the footprint's pixel count: beyond that share outside, the answer is yes.
+  const double enough = kOverhangShare * static_cast<double>(footprint);
+  while (!stack.empty() && static_cast<double>(outside) <= enough) {
     const std::uint32_t px = stack.back();
     stack.pop_back();
     const int u = static_cast<int>(px % static_cast<std::uint32_t>(image.width));
@@ -372,6 +376,8 @@ bool any_face_overhangs(const ModelView& view, const std::vector<Eigen::Vector3d
                         const std::vector<std::uint32_t>& pixels, const Prepared& prep,
                         double explain, double diameter) {
   const double min_cos = std::cos(deg_to_rad(kFaceDeg));
+  const auto footprint = static_cast<std::size_t>(
+      std::count_if(view.owner.begin(), view.owner.end(), [](std::int32_t o) { return o >= 0; }));
   std::vector<std::pair<Eigen::Vector3d, std::vector<std::uint32_t>>> faces;
   for (std::size_t k = 0; k < pixels.size(); ++k) {
     const Eigen::Vector3d& normal = n[explained_model[k]];
@@ -383,7 +389,7 @@ bool any_face_overhangs(const ModelView& view, const std::vector<Eigen::Vector3d
   return std::any_of(faces.begin(), faces.end(), [&](const auto& f) {
     return static_cast<double>(f.second.size()) >=
                kFaceShare * static_cast<double>(pixels.size()) &&
-           surface_overhang(view, f.second, prep, explain, diameter);
+           surface_overhang(view, footprint, f.second, prep, explain, diameter);
   });
 }
 
