@@ -369,8 +369,8 @@ bool surface_overhang(const ModelView& view, std::size_t footprint,
 // Whether one of the part's faces the scene explains is a face of a larger surface
 // (surface_overhang): the explained pixels grouped by their model point's normal (within
 // kFaceDeg of the group's first), each group holding kFaceShare of them tested. One face at a
-// time: the bracket's L fitted into the bin's inner corner explains two walls, neither of which
-// ends where the part does.
+// time: an L fitted into two surfaces (the bin's inner corner) explains two planes, which the
+// test over all its points would not see as one.
 bool any_face_overhangs(const ModelView& view, const std::vector<Eigen::Vector3d>& n,
                         const std::vector<std::size_t>& explained_model,
                         const std::vector<std::uint32_t>& pixels, const Prepared& prep,

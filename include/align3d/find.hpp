@@ -33,8 +33,8 @@
 //      points) lie on one plane (RMS below a third of the explain distance) that, grown through
 //      the depth image, covers more than half as many pixels outside the part's outline as
 //      inside: a face of the part matched into a larger surface (a plate into the bin's wall,
-//      where the outline ring falls on the floor and cannot tell; the bracket's L into the
-//      bin's inner corner).
+//      where the outline ring falls on the floor and cannot tell; face by face, so that an L
+//      fitted into two surfaces is tested too).
 //   5. Non-maximum suppression, best score first: each accepted instance claims the scene pixels
 //      of its surface; a later hypothesis is scored again on its explained pixels still free and
 //      dropped below min_score. So one part is reported once, whatever its symmetry. Each
