@@ -1,6 +1,5 @@
 #include "align3d/find.hpp"
 
-#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -306,9 +305,9 @@ bool agrees(const Prepared& prep, const Eigen::Vector3d& s, const Eigen::Vector3
   return prep.voting.normals[nn.index].dot(n) >= min_cos;
 }
 
-// Whether the explained scene points lie on one plane that goes on well beyond the model's
-// footprint in the image (the owners' pixels and their outline ring, `footprint` of them): a
-// face of the part matched into a larger surface, a plate into the bin's wall beside the floor,
+// Whether the explained scene points lie on one plane (fit_plane) that goes on well beyond the
+// model's footprint in the image (the owners' pixels and their outline ring, `footprint` of them):
+// a face of the part matched into a larger surface, a plate into the bin's wall beside the floor,
 // where the outline test sees the floor. The plane is grown over 4-connected pixels from the
 // explained ones, through scene points within `explain` of it and within the diameter of their
 // centroid, not those of a removed plane (a plate lying on the floor is parallel to it, a plate's
@@ -318,21 +317,22 @@ bool surface_overhang(const ModelView& view, std::size_t footprint,
                       double explain, double diameter) {
   const RangeImage& image = prep.image;
   if (explained_pixels.size() < kMinExplained) return false;
-  const auto at_pixel = [&](std::uint32_t px) -> const Eigen::Vector3d& {
-    return prep.points[static_cast<std::size_t>(image.point[px])];
-  };
-  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-  for (std::uint32_t px : explained_pixels) mean += at_pixel(px);
-  mean /= static_cast<double>(explained_pixels.size());
-  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-  for (std::uint32_t px : explained_pixels) {
-    const Eigen::Vector3d d = at_pixel(px) - mean;
-    cov += d * d.transpose();
+  std::vector<std::size_t> explained_points;
+  for (std::uint32_t px : explained_pixels)
+    explained_points.push_back(static_cast<std::size_t>(image.point[px]));
+  Plane plane;
+  try {
+    plane = fit_plane(prep.points, &explained_points);
+  } catch (const DataError&) {
+    return false;  // on one spot or one line, or a volume: not a face
   }
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(
-      cov / static_cast<double>(explained_pixels.size()));
-  if (std::sqrt(std::max(0.0, eig.eigenvalues()(0))) > kFlatExplains * explain) return false;
-  const Eigen::Vector3d normal = eig.eigenvectors().col(0);
+  double sq_sum = 0;
+  for (std::size_t q : explained_points)
+    sq_sum += std::pow(plane.signed_distance(prep.points[q]), 2);
+  if (std::sqrt(sq_sum / static_cast<double>(explained_points.size())) > kFlatExplains * explain)
+    return false;
+  const Eigen::Vector3d& normal = plane.normal;
+  const Eigen::Vector3d& mean = plane.point;
   // The flood fill's marks, per thread, cleared after use (the image is large, the fill small).
   thread_local std::vector<char> seen;
   seen.resize(image.depth.size(), 0);
