@@ -5,7 +5,7 @@
 set -euo pipefail
 default_pkgs=(build-essential cmake ninja-build pkg-config ca-certificates clang-format
       libeigen3-dev libnanoflann-dev libcli11-dev nlohmann-json3-dev libfast-float-dev
-      liblzf-dev libcairo2-dev fonts-dejavu-core libgtest-dev libgmock-dev libbenchmark-dev
+      liblzf-dev libceres-dev libcairo2-dev fonts-dejavu-core libgtest-dev libgmock-dev libbenchmark-dev
       python3 python3-dev python3-venv python3-pip python3-numpy python3-setuptools python3-wheel
       python3-pybind11 pybind11-dev python3-pytest python3-distributed
       libocct-foundation-dev libocct-modeling-data-dev libocct-modeling-algorithms-dev

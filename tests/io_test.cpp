@@ -29,6 +29,7 @@
 #include "align3d/error.hpp"
 #include "align3d/io/atomic_file.hpp"
 #include "align3d/io/matrix_io.hpp"
+#include "align3d/io/ply_attributes.hpp"
 #include "align3d/io/point_cloud_io.hpp"
 #include "test_util.hpp"
 
@@ -399,6 +400,36 @@ TEST_F(IoTest, PlyNormalsAreNormalised) {
   ASSERT_TRUE(cloud.has_normals());
   EXPECT_EQ(cloud.normals[0], Eigen::Vector3d(0, 0, 1));
   EXPECT_LT((cloud.normals[1] - Eigen::Vector3d(0.6, 0.8, 0)).norm(), 1e-15);
+}
+
+// A PLY with attributes (io/ply_attributes.hpp) carries normals after x y z; the cloud reader takes
+// them back as the cloud's normals, and skips the attributes after them.
+TEST_F(IoTest, PlyAttributesNormalsReadBackAsTheCloudsNormals) {
+  const std::vector<Eigen::Vector3d> positions = {{0, 0, 0}, {1, 2, 3}, {-4, 5.5, 6}};
+  PlyAttributes a;
+  a.normals = {{0, 0, 1}, {0.6, 0.8, 0}, Eigen::Vector3d(1, 1, 1).normalized()};
+  a.ints = {{"scan", {0, 1, 7}}};
+  a.colors = {{{1, 2, 3}}, {{4, 5, 6}}, {{7, 8, 9}}};
+  write_ply(dir_ / "a.ply", positions, a);
+  const PointCloud cloud = read_point_cloud(dir_ / "a.ply");
+  ASSERT_EQ(cloud.size(), 3u);
+  ASSERT_TRUE(cloud.has_normals());
+  for (std::size_t i = 0; i < 3; ++i) {
+    EXPECT_LT((cloud.positions[i] - positions[i]).norm(), 1e-6) << i;
+    EXPECT_LT((cloud.normals[i] - a.normals[i]).norm(), 1e-7) << i;  // float32, renormalised
+  }
+  // The header lists them in that order, and the bytes hold 6 floats, an int and 3 bytes a point.
+  const std::string bytes = test::read_text(dir_ / "a.ply");
+  EXPECT_NE(bytes.find("property float z\nproperty float nx\nproperty float ny\nproperty float "
+                       "nz\nproperty int scan\nproperty uchar red"),
+            std::string::npos);
+  EXPECT_EQ(bytes.size() - bytes.find("end_header\n") - 11, 3u * (6 * 4 + 4 + 3));
+  // Without normals nothing changes: no nx, and the cloud has none.
+  write_ply(dir_ / "b.ply", positions, PlyAttributes{});
+  EXPECT_FALSE(read_point_cloud(dir_ / "b.ply").has_normals());
+  a.normals.pop_back();
+  EXPECT_THROW(write_ply(dir_ / "c.ply", positions, a), std::invalid_argument);
+  EXPECT_FALSE(fs::exists(dir_ / "c.ply"));
 }
 
 TEST_F(IoTest, PlyNormalsWithTinyOrHugeComponentsBecomeUnitVectors) {

@@ -21,6 +21,8 @@ enum class ExitCode : int {
   kWarnings = 7,       // --strict: the result came with warnings (it may be wrong); outputs written
   kBatchFailures = 8,  // batch: some pairs failed; the others' reports were written
   kRejected = 9,       // inspect: the part is out of tolerance (verdict fail); outputs written
+  kUnconnected = 10,   // stitch: some scans overlap no other; the others were stitched and the
+                       // outputs written
 };
 
 class Error : public std::runtime_error {

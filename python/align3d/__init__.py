@@ -30,6 +30,7 @@ from ._find import FindResult, find, match_instances
 from ._inspect import InspectResult, inspect
 from ._mesh import TriangleMesh, is_mesh_file, read_mesh, write_mesh
 from ._register import RectifyResult, Result, rectify, register
+from ._stitch import StitchResult, stitch
 from ._target import Target
 
 __version__: str = _core.__version__
@@ -54,6 +55,7 @@ __all__ = [
     "Result",
     "SettingsError",
     "StrictError",
+    "StitchResult",
     "Target",
     "TriangleMesh",
     "convert",
@@ -70,6 +72,7 @@ __all__ = [
     "read_point_cloud",
     "rectify",
     "register",
+    "stitch",
     "synth",
     "write_matrix",
     "write_mesh",

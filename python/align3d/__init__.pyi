@@ -264,6 +264,7 @@ def synth(
     views: Optional[int] = ...,
     noise: Optional[float] = ...,
     triangles: Optional[int] = ...,
+    no_leaf: bool = ...,
 ) -> Dict[str, Any]: ...
 def evaluate(
     outdir: PathLike = ...,
@@ -323,3 +324,44 @@ def match_instances(
     *,
     min_visible: float = ...,
 ) -> Dict[str, Any]: ...
+
+class StitchResult:
+    def __init__(
+        self, report: Dict[str, Any], merged: PointCloud, merged_scan: npt.NDArray[np.int32]
+    ) -> None: ...
+    def to_dict(self) -> Dict[str, Any]: ...
+    @property
+    def transformation(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def warnings(self) -> List[AlignWarning]: ...
+    @property
+    def poses(self) -> List[npt.NDArray[np.float64]]: ...
+    @property
+    def connected(self) -> List[bool]: ...
+    @property
+    def edges(self) -> List[Dict[str, Any]]: ...
+    @property
+    def merged(self) -> PointCloud: ...
+    @property
+    def merged_scan(self) -> npt.NDArray[np.int32]: ...
+    @property
+    def report(self) -> Dict[str, Any]: ...
+
+def stitch(
+    scans: Sequence[CloudLike],
+    *,
+    min_overlap: float = ...,
+    voxel: float = ...,
+    prune_rotation: float = ...,
+    prune_translation: float = ...,
+    multiview_iterations: int = ...,
+    viewpoints: Optional[ArrayLike] = ...,
+    seed: int = ...,
+    threads: int = ...,
+    report: Optional[PathLike] = ...,
+    output: Optional[PathLike] = ...,
+    figure: Optional[PathLike] = ...,
+    html: Optional[PathLike] = ...,
+    scan_index: bool = ...,
+    strict: bool = ...,
+) -> StitchResult: ...

@@ -123,15 +123,21 @@ def read_point_cloud(path: PathLike) -> PointCloud:
     :class:`AlignWarning` (code ``file``). A missing, unreadable, malformed or truncated file is a
     :class:`FileError` naming it (and the line or byte offset); one with no point left too.
     The GIL is released while reading."""
-    cloud, dropped = _core.read_point_cloud(os.fspath(path))
+    return _read(path, stacklevel=3)[0]
+
+
+def _read(path: PathLike, stacklevel: int) -> "tuple[PointCloud, np.ndarray]":
+    """The cloud of a file and its sensor's position (a PCD's VIEWPOINT, else the origin); the
+    warning about dropped points is issued ``stacklevel`` frames up."""
+    cloud, dropped, viewpoint = _core.read_point_cloud(os.fspath(path))
     if dropped:
         warnings.warn(
             AlignWarning(
                 "file", f"{os.fspath(path)}: dropped {dropped} points with NaN or Inf coordinates"
             ),
-            stacklevel=2,
+            stacklevel=stacklevel,
         )
-    return PointCloud._wrap(cloud)
+    return PointCloud._wrap(cloud), np.asarray(viewpoint, dtype=np.float64)
 
 
 def write_point_cloud(path: PathLike, cloud: Any, *, encoding: Optional[str] = None) -> None:

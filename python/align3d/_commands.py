@@ -66,6 +66,7 @@ def synth(
     views: Optional[int] = None,
     noise: Optional[float] = None,
     triangles: Optional[int] = None,
+    no_leaf: bool = False,
 ) -> Dict[str, Any]:
     """Writes a synthetic scene with ground truth into ``outdir`` (``align3d synth``; created if
     missing) and returns its ``scene.json`` as a dict. Units: mm.
@@ -83,13 +84,15 @@ def synth(
     scan with dents, bumps, warp, noise ``noise`` (mm), a fixture and a known pose, about
     ``points`` points from ``views`` (1 or 2) viewpoints; ``triangles`` also writes
     ``part_fine.stl`` subdivided to at least that many triangles; ``scan_truth.ply`` holds each
-    point's label and true deviation). ``seed``: the same seed writes the same bytes (default 39).
+    point's label and true deviation) or ``"stitch"`` (``views`` range scans ``scan_00.ply`` …
+    of ``part`` around it, each in its sensor's frame, listed in ``scans.txt``, plus a leaf view
+    that overlaps one other unless ``no_leaf``; the truth is ``truth.json``, returned). ``seed``: the same seed writes the same bytes (default 39).
     Read the clouds with :func:`read_point_cloud` and the truth with :func:`read_matrix`."""
     run("synth", [outdir], dict(scene=scene, seed=seed, variant=variant, points=points,
                                 instances=instances, part=part, distractors=distractors,
                                 azimuth=azimuth, angle=angle, views=views,
-                                noise=noise, triangles=triangles))
-    return _json(Path(outdir) / "scene.json")
+                                noise=noise, triangles=triangles), dict(no_leaf=no_leaf))
+    return _json(Path(outdir) / ("truth.json" if scene == "stitch" else "scene.json"))
 
 
 def evaluate(

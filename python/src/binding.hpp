@@ -24,6 +24,7 @@ void bind_commands(py::module_& m);  // commands.cpp: a command of the `align3d`
 void bind_mesh(py::module_& m);      // mesh.cpp: TriangleMesh, mesh files
 void bind_inspect(py::module_& m);   // inspect.cpp: inspect() with its report and arrays
 void bind_find(py::module_& m);      // find.cpp: find() with its report and overlays
+void bind_stitch(py::module_& m);    // stitch.cpp: stitch() with its report and merged cloud
 void bind_instance_match(py::module_& m);  // instance_match.cpp: BOP's scoring of found poses
 
 // The rigid transform in a 4x4 array, by the rule of transform files (io/matrix_io.hpp);

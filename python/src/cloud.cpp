@@ -147,7 +147,9 @@ void bind_cloud(py::module_& m) {
           py::gil_scoped_release release;
           cloud = io::read_point_cloud(path, &info);
         }
-        return py::make_tuple(std::move(cloud), info.dropped_non_finite);
+        // The sensor's position: a PCD's VIEWPOINT, the origin for other formats.
+        return py::make_tuple(std::move(cloud), info.dropped_non_finite,
+                              Eigen::Vector3d(info.viewpoint.position));
       },
       py::arg("path"));
   m.def(

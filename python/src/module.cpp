@@ -12,6 +12,7 @@ PYBIND11_MODULE(_core, m) {
   align3d::python::bind_register(m);
   align3d::python::bind_inspect(m);
   align3d::python::bind_find(m);
+  align3d::python::bind_stitch(m);
   align3d::python::bind_instance_match(m);
   align3d::python::bind_commands(m);
 }

@@ -13,7 +13,8 @@ int execute(const std::vector<std::string>& args, std::ostream& out, std::ostrea
       "align3d: rigid registration, inspection and rectification of 3D point clouds and meshes.\n"
       "Transforms map SOURCE into TARGET's frame (target ≈ T·source). Exit codes: 0 ok, 1 internal "
       "error, 2 usage, 3 input file, 4 unusable data, 5 output file, 6 no solution, 7 warnings "
-      "with --strict, 8 some pairs of a batch failed, 9 the part failed inspection.",
+      "with --strict, 8 some pairs of a batch failed, 9 the part failed inspection, 10 some scans "
+      "overlap no other (stitch).",
       "align3d"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "align3d 0.1.0");
@@ -21,7 +22,7 @@ int execute(const std::vector<std::string>& args, std::ostream& out, std::ostrea
   const Command commands[] = {add_register(app, io), add_synth(app, io),     add_rectify(app, io),
                               add_demo(app, io),     add_ppf_model(app, io), add_evaluate(app, io),
                               add_convert(app, io),  add_batch(app, io),     add_inspect(app, io),
-                              add_find(app, io)};
+                              add_find(app, io),     add_stitch(app, io)};
 
   try {
     std::vector<std::string> reversed(args.rbegin(), args.rend());  // CLI11 wants them reversed

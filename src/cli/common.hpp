@@ -110,5 +110,6 @@ Command add_convert(CLI::App& app, Streams io);
 Command add_batch(CLI::App& app, Streams io);
 Command add_inspect(CLI::App& app, Streams io);
 Command add_find(CLI::App& app, Streams io);
+Command add_stitch(CLI::App& app, Streams io);
 
 }  // namespace align3d::cli

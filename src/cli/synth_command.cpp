@@ -1,6 +1,7 @@
 // align3d synth OUTDIR: the chapter's scene and plates (synth/scenes.hpp), the parts cell, the
-// depth-camera scenes (synth/depth_scenes.hpp, written by synth_depth.cpp), or the machined part
-// and its as-built scan (synth/part.hpp), with ground truth.
+// depth-camera scenes (synth/depth_scenes.hpp, written by synth_depth.cpp), the machined part
+// and its as-built scan (synth/part.hpp), or multi-view scans for stitching
+// (synth/stitch_scans.hpp, written by synth_stitch.cpp), with ground truth.
 #include <filesystem>
 #include <iostream>
 
@@ -12,6 +13,7 @@
 #include "common.hpp"
 #include "synth_depth.hpp"
 #include "synth_part.hpp"
+#include "synth_stitch.hpp"
 
 namespace align3d::cli {
 
@@ -29,6 +31,7 @@ struct SynthOptions {
   double azimuth = 30;
   double angle = 60;
   int views = 2;
+  bool no_leaf = false;  // --scene stitch
   double noise = 0.01;
   std::size_t triangles = 0;
 };
@@ -163,6 +166,10 @@ Command add_synth(CLI::App& app, Streams io) {
       "then every --angle degrees: "
       "view_K.pcd (organized, own camera frame), model.ply, view_K.txt (view_K ≈ T·model), "
       "pair_0_K.txt (view_0 ≈ T·view_K), scene.json.\n"
+      "With --scene stitch: range scans of --part (bracket, or flange: keyed by three lugs) from "
+      "--views ring views (default 8) around it, tilted 30°, plus a leaf view from below that "
+      "overlaps only one of them (not with --no-leaf): scan_KK.ply (each in its own sensor "
+      "frame), scans.txt, model.stl, truth.json (poses into scan_00's frame, eyes, overlaps).\n"
       "With --scene part: a machined part (120x80x40 block, chamfer, pocket, two through-holes, "
       "a boss) and its as-built scan from --views 1 or 2 viewpoints (dents, bumps, warp, "
       "--noise, a fixture, a known pose; about 385000 points, or --points): part.stl (CAD), "
@@ -177,8 +184,8 @@ Command add_synth(CLI::App& app, Streams io) {
       ->check(CLI::IsMember({"chapter", "wide-plane", "small-features", "large-offset", "extreme"}))
       ->capture_default_str();
   sub->add_option("--scene", o->scene,
-                  "chapter (the conveyor scene and plates), parts, bin, views or part")
-      ->check(CLI::IsMember({"chapter", "parts", "bin", "views", "part"}))
+                  "chapter (the conveyor scene and plates), parts, bin, views, part or stitch")
+      ->check(CLI::IsMember({"chapter", "parts", "bin", "views", "part", "stitch"}))
       ->capture_default_str();
   CLI::Option* points =
       sub->add_option("--points", o->points,
@@ -191,7 +198,8 @@ Command add_synth(CLI::App& app, Streams io) {
       ->capture_default_str();
   sub->add_option("--part", o->part,
                   "The part in the bin (--scene bin): bracket (no symmetry) or flange (turned, "
-                  "rotationally symmetric)")
+                  "rotationally symmetric); the scanned object (--scene stitch): bracket or "
+                  "flange (keyed by three lugs: near-symmetric)")
       ->check(CLI::IsMember({"bracket", "flange"}))
       ->capture_default_str();
   sub->add_option("--distractors", o->distractors,
@@ -204,9 +212,13 @@ Command add_synth(CLI::App& app, Streams io) {
   sub->add_option("--azimuth", o->azimuth, "Azimuth of the first view in degrees (--scene views)")
       ->check(CLI::Range(-360.0, 360.0))
       ->capture_default_str();
-  sub->add_option("--views", o->views, "Number of views (--scene views; --scene part: 1 or 2)")
-      ->check(CLI::Range(1, 360))
-      ->capture_default_str();
+  CLI::Option* views =
+      sub->add_option("--views", o->views,
+                      "Number of views (--scene views; --scene part: 1 or 2; --scene stitch: ring "
+                      "views, at least 2, default 8)")
+          ->check(CLI::Range(1, 360))
+          ->capture_default_str();
+  sub->add_flag("--no-leaf", o->no_leaf, "Leave out the leaf view (--scene stitch)");
   sub->add_option("--noise", o->noise, "Scan noise sigma in mm, along the ray (--scene part)")
       ->check(CLI::Range(0.0, 10.0))
       ->capture_default_str();
@@ -215,48 +227,58 @@ Command add_synth(CLI::App& app, Streams io) {
                   "(--scene part)")
       ->check(CLI::Range(std::size_t{0}, std::size_t{100000000}))
       ->capture_default_str();
-  return {sub, [o, io, points] {
-            if (o->scene == "part") {
-              const nlohmann::json j = write_part_scene(
-                  o->outdir, {o->seed, o->views, o->noise, o->triangles,
-                              points->count() > 0 ? static_cast<std::size_t>(o->points) : 0});
-              io.out << "wrote " << o->outdir << ": part.stl " << j["part"]["triangles"]
-                     << " triangles, scan " << j["scan"]["points"] << " points ("
-                     << j["scan"]["fixture_points"] << " on the fixture)\n";
-              return 0;
-            }
-            if (o->scene == "bin") {
-              make_directory(o->outdir);
-              const nlohmann::json j =
-                  write_bin_scene(o->outdir, {o->seed, o->part, o->instances, o->distractors});
-              io.out << "wrote " << o->outdir << ": scene.pcd " << j["cloud"]["width"] << "x"
-                     << j["cloud"]["height"] << " (" << j["cloud"]["valid_points"]
-                     << " valid points), model.stl (" << o->part << "), " << j["instances"].size()
-                     << " instance(s), " << j["distractors"] << " distractor(s)\n";
-              return 0;
-            }
-            if (o->scene == "views") {
-              make_directory(o->outdir);
-              const nlohmann::json j =
-                  write_object_views(o->outdir, o->seed, o->azimuth, o->angle, o->views);
-              io.out << "wrote " << o->outdir << ": " << j["views"].size() << " views " << o->angle
-                     << "° apart, model " << j["model"]["points"] << " points\n";
-              return 0;
-            }
-            if (o->scene == "parts") {
-              const nlohmann::json j = write_parts_scene(o->outdir, o->seed, o->points);
-              io.out << "wrote " << o->outdir << ": model " << j["model"]["points"]
-                     << " points, scan " << j["scan"]["points"] << " points\n";
-              return 0;
-            }
-            const nlohmann::json j = write_scene(o->outdir, o->seed, o->variant);
-            io.out << "wrote " << o->outdir << ": model " << j["model"]["points"]
-                   << " points, scan " << j["scan"]["points"] << " points ("
-                   << j["scan"]["no_correspondence"] << " without correspondence), plates "
-                   << j["plate"]["points"] << " and " << j["plate_cluttered"]["points"]
-                   << " points\n";
-            return 0;
-          }};
+  return {
+      sub, [o, io, points, views] {
+        if (o->scene == "stitch") {
+          make_directory(o->outdir);
+          const nlohmann::json j = write_stitch_scans(
+              o->outdir, {o->seed, o->part, views->count() > 0 ? o->views : 8, !o->no_leaf});
+          io.out << "wrote " << o->outdir << ": " << j["scans"].size() << " scans of " << o->part;
+          if (!j["leaf"].is_null())
+            io.out << " (scan " << j["leaf"] << " a leaf over scan " << j["leaf_parent"] << ")";
+          io.out << ", scans.txt, model.stl, truth.json\n";
+          return 0;
+        }
+        if (o->scene == "part") {
+          const nlohmann::json j = write_part_scene(
+              o->outdir, {o->seed, o->views, o->noise, o->triangles,
+                          points->count() > 0 ? static_cast<std::size_t>(o->points) : 0});
+          io.out << "wrote " << o->outdir << ": part.stl " << j["part"]["triangles"]
+                 << " triangles, scan " << j["scan"]["points"] << " points ("
+                 << j["scan"]["fixture_points"] << " on the fixture)\n";
+          return 0;
+        }
+        if (o->scene == "bin") {
+          make_directory(o->outdir);
+          const nlohmann::json j =
+              write_bin_scene(o->outdir, {o->seed, o->part, o->instances, o->distractors});
+          io.out << "wrote " << o->outdir << ": scene.pcd " << j["cloud"]["width"] << "x"
+                 << j["cloud"]["height"] << " (" << j["cloud"]["valid_points"]
+                 << " valid points), model.stl (" << o->part << "), " << j["instances"].size()
+                 << " instance(s), " << j["distractors"] << " distractor(s)\n";
+          return 0;
+        }
+        if (o->scene == "views") {
+          make_directory(o->outdir);
+          const nlohmann::json j =
+              write_object_views(o->outdir, o->seed, o->azimuth, o->angle, o->views);
+          io.out << "wrote " << o->outdir << ": " << j["views"].size() << " views " << o->angle
+                 << "° apart, model " << j["model"]["points"] << " points\n";
+          return 0;
+        }
+        if (o->scene == "parts") {
+          const nlohmann::json j = write_parts_scene(o->outdir, o->seed, o->points);
+          io.out << "wrote " << o->outdir << ": model " << j["model"]["points"] << " points, scan "
+                 << j["scan"]["points"] << " points\n";
+          return 0;
+        }
+        const nlohmann::json j = write_scene(o->outdir, o->seed, o->variant);
+        io.out << "wrote " << o->outdir << ": model " << j["model"]["points"] << " points, scan "
+               << j["scan"]["points"] << " points (" << j["scan"]["no_correspondence"]
+               << " without correspondence), plates " << j["plate"]["points"] << " and "
+               << j["plate_cluttered"]["points"] << " points\n";
+        return 0;
+      }};
 }
 
 }  // namespace align3d::cli

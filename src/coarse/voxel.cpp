@@ -8,7 +8,28 @@
 
 namespace align3d {
 
-PointCloud voxel_downsample(const PointCloud& cloud, double voxel) {
+namespace {
+
+// The label most of order[begin, end) carry, the smallest on a tie.
+std::int32_t majority(const std::vector<std::pair<std::uint64_t, std::uint32_t>>& order,
+                      std::size_t begin, std::size_t end, const std::vector<std::int32_t>& labels) {
+  std::vector<std::int32_t> seen;
+  for (std::size_t i = begin; i < end; ++i) seen.push_back(labels[order[i].second]);
+  std::sort(seen.begin(), seen.end());
+  std::int32_t best = seen.front();
+  std::size_t best_run = 0;
+  for (std::size_t i = 0; i < seen.size();) {
+    std::size_t j = i;
+    while (j < seen.size() && seen[j] == seen[i]) ++j;
+    if (j - i > best_run) best = seen[i], best_run = j - i;
+    i = j;
+  }
+  return best;
+}
+
+PointCloud downsample(const PointCloud& cloud, double voxel,
+                      const std::vector<std::int32_t>* labels,
+                      std::vector<std::int32_t>* out_labels) {
   if (!(voxel > 0) || !std::isfinite(voxel))
     throw std::invalid_argument("voxel_downsample: voxel size must be positive");
   PointCloud out;
@@ -40,9 +61,25 @@ PointCloud voxel_downsample(const PointCloud& cloud, double voxel) {
     if (normals)
       out.normals.push_back(nsum.norm() > 0 ? Eigen::Vector3d(nsum.normalized())
                                             : cloud.normals[order[begin].second]);
+    if (labels) out_labels->push_back(majority(order, begin, end, *labels));
     begin = end;
   }
   return out;
+}
+
+}  // namespace
+
+PointCloud voxel_downsample(const PointCloud& cloud, double voxel) {
+  return downsample(cloud, voxel, nullptr, nullptr);
+}
+
+PointCloud voxel_downsample(const PointCloud& cloud, double voxel,
+                            const std::vector<std::int32_t>& labels,
+                            std::vector<std::int32_t>& out_labels) {
+  if (labels.size() != cloud.size())
+    throw std::invalid_argument("voxel_downsample: one label per point is needed");
+  out_labels.clear();
+  return downsample(cloud, voxel, &labels, &out_labels);
 }
 
 }  // namespace align3d

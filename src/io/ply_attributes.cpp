@@ -25,7 +25,10 @@ void check_property(const std::string& name, const std::vector<T>& values, std::
 }
 
 void check(const std::vector<Eigen::Vector3d>& positions, const PlyAttributes& a) {
-  std::set<std::string> names = {"x", "y", "z", "red", "green", "blue"};
+  std::set<std::string> names = {"x", "y", "z", "nx", "ny", "nz", "red", "green", "blue"};
+  if (!a.normals.empty() && a.normals.size() != positions.size())
+    throw std::invalid_argument("write_ply: " + std::to_string(a.normals.size()) + " normals for " +
+                                std::to_string(positions.size()) + " points");
   for (const auto& [name, values] : a.scalars)
     check_property(name, values, positions.size(), names);
   for (const auto& [name, values] : a.ints) check_property(name, values, positions.size(), names);
@@ -43,6 +46,7 @@ void write_ply(const std::filesystem::path& path, const std::vector<Eigen::Vecto
   std::string header = "ply\nformat binary_little_endian 1.0\ncomment written by align3d\n";
   header += "element vertex " + std::to_string(positions.size()) +
             "\nproperty float x\nproperty float y\nproperty float z\n";
+  if (!a.normals.empty()) header += "property float nx\nproperty float ny\nproperty float nz\n";
   for (const auto& scalar : a.scalars) header += "property float " + scalar.first + "\n";
   for (const auto& integer : a.ints) header += "property int " + integer.first + "\n";
   for (const auto& byte : a.bytes) header += "property uchar " + byte.first + "\n";
@@ -57,6 +61,9 @@ void write_ply(const std::filesystem::path& path, const std::vector<Eigen::Vecto
     for (std::size_t i = 0; i < positions.size(); ++i) {
       for (int k = 0; k < 3; ++k)
         detail::append_bytes(buffer, detail::to_float(positions[i][k]), swap);
+      if (!a.normals.empty())
+        for (int k = 0; k < 3; ++k)
+          detail::append_bytes(buffer, detail::to_float(a.normals[i][k]), swap);
       for (const auto& scalar : a.scalars) detail::append_bytes(buffer, scalar.second[i], swap);
       for (const auto& integer : a.ints) detail::append_bytes(buffer, integer.second[i], swap);
       for (const auto& byte : a.bytes) buffer += static_cast<char>(byte.second[i]);

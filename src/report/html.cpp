@@ -51,9 +51,23 @@ std::string html_figure(const std::filesystem::path& png, const std::string& cap
   std::ostringstream bytes;
   bytes << in.rdbuf();
   if (!in) throw OutputError(png, "cannot read the figure back to embed it");
-  return "<figure><img alt=\"" + html_escape(png.stem().string()) +
-         "\" src=\"data:image/png;base64," + base64(bytes.str()) + "\"><figcaption>" +
-         html_escape(caption) + "</figcaption></figure>\n";
+  return html_figure_png(bytes.str(), png.stem().string(), caption);
+}
+
+std::string html_figure_png(const std::string& png_bytes, const std::string& alt,
+                            const std::string& caption) {
+  return "<figure><img alt=\"" + html_escape(alt) + "\" src=\"data:image/png;base64," +
+         base64(png_bytes) + "\"><figcaption>" + html_escape(caption) + "</figcaption></figure>\n";
+}
+
+std::string html_warnings(const std::vector<Warning>& warnings) {
+  if (warnings.empty()) return "<p>No warnings.</p>\n";
+  std::string out = "<h2>Warnings</h2>\n<ul>\n";
+  for (const Warning& w : warnings) {
+    out +=
+        "<li class=warn><b>" + html_escape(w.code) + "</b>: " + html_escape(w.message) + "</li>\n";
+  }
+  return out + "</ul>\n";
 }
 
 std::string html_page(const std::string& title, const std::string& body) {

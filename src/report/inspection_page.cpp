@@ -216,20 +216,11 @@ std::string mesh_html(const InspectResult& r, const std::string& units) {
   return t;
 }
 
-std::string warnings_html(const InspectResult& r) {
-  if (r.warnings.empty()) return "<p>No warnings.</p>\n";
-  std::string out = "<h2>Warnings</h2>\n<ul>\n";
-  for (const Warning& w : r.warnings) {
-    out += "<li class=warn><b>" + esc(w.code) + "</b>: " + esc(w.message) + "</li>\n";
-  }
-  return out + "</ul>\n";
-}
-
 // The page's body; `figures` is the folder holding the figures when something was measured.
 std::string body_html(const fs::path& figures, const InspectResult& r, const PointCloud& scan,
                       const InspectionPageInfo& info) {
   std::string body = "<h1>" + esc(info.title) + "</h1>\n" + inputs_html(r, scan, info) +
-                     verdict_html(r, info) + warnings_html(r);
+                     verdict_html(r, info) + html_warnings(r.warnings);
   if (measured(r)) body += figures_html(figures, r, info) + stats_html(r, info);
   return body + "<h2>Registration and CAD model</h2>\n" +
          side_by_side({{"Registration", registration_html(r, info.units)},

@@ -1,5 +1,7 @@
 #include "align3d/report/json.hpp"
 
+#include <stdexcept>
+
 #include "align3d/io/atomic_file.hpp"
 #include "align3d/se3.hpp"
 
@@ -45,6 +47,55 @@ nlohmann::json init_json(const AlignResult& r, const AlignSettings& s) {
           {"path", r.path},
           {"reason", r.reason},
           {"candidates", candidates}};
+}
+
+nlohmann::json matrix6_json(const Matrix6d& m) {  // 6 arrays of 6 numbers, row-major
+  nlohmann::json rows = nlohmann::json::array();
+  for (int r = 0; r < 6; ++r) {
+    nlohmann::json row = nlohmann::json::array();
+    for (int c = 0; c < 6; ++c) row.push_back(m(r, c));
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+nlohmann::json stitch_pose_json(const StitchScan& s, const InputInfo& in) {
+  return {{"file", in.path},
+          {"transformation", to_json(s.transformation)},
+          {"connected", s.connected},
+          {"points", s.points},
+          {"edges", s.edges},
+          {"residual", {{"pairs", s.pairs}, {"rms", s.rms}, {"median", s.median}, {"p95", s.p95}}}};
+}
+
+nlohmann::json stitch_edge_json(const StitchEdge& e, const std::vector<InputInfo>& scans) {
+  const auto file = [&](std::size_t k) { return k < scans.size() ? scans[k].path : ""; };
+  return {{"source", e.source},
+          {"target", e.target},
+          {"source_file", file(e.source)},
+          {"target_file", file(e.target)},
+          {"transformation", to_json(e.transformation)},
+          {"overlap", e.overlap},
+          {"rms", e.rms},
+          {"kept", e.kept},
+          {"status", e.status},
+          {"rotation_residual_deg", e.rotation_residual_deg},
+          {"translation_residual", e.translation_residual},
+          {"information", matrix6_json(e.information)},
+          {"warnings", to_json(e.warnings)}};
+}
+
+nlohmann::json stitch_settings_json(const StitchSettings& s) {
+  nlohmann::json viewpoints = nlohmann::json::array();
+  for (const Eigen::Vector3d& v : s.viewpoints) viewpoints.push_back(to_json(v));
+  return {{"min_overlap", s.min_overlap},
+          {"prune_rotation_deg", s.prune_rotation_deg},
+          {"prune_translation", s.prune_translation},
+          {"multiview_iterations", s.multiview_iterations},
+          {"voxel", s.voxel},
+          {"viewpoints", viewpoints},
+          {"seed", s.seed},
+          {"threads", s.threads}};
 }
 
 // A mesh's points are its vertices; its triangles are listed too.
@@ -220,6 +271,38 @@ nlohmann::json find_report(const FindResult& r, const FindSettings& s, const Inp
             {"refine", r.refine_ms},
             {"verify", r.verify_ms},
             {"total", r.total_ms}}}};
+}
+
+nlohmann::json stitch_report(const StitchResult& r, const StitchSettings& s,
+                             const std::vector<InputInfo>& scans, const std::string& merged_file,
+                             bool scan_index) {
+  if (scans.size() != r.scans.size())
+    throw std::invalid_argument("stitch_report: " + std::to_string(scans.size()) +
+                                " inputs named for " + std::to_string(r.scans.size()) + " scans");
+  nlohmann::json poses = nlohmann::json::array();
+  for (std::size_t k = 0; k < r.scans.size(); ++k)
+    poses.push_back(stitch_pose_json(r.scans[k], scans[k]));
+  nlohmann::json edges = nlohmann::json::array();
+  for (const StitchEdge& e : r.edges) edges.push_back(stitch_edge_json(e, scans));
+  const StitchTimings& t = r.timings;
+  return {{"poses", poses},
+          {"edges", edges},
+          {"merged",
+           {{"file", merged_file},
+            {"points", r.merged.size()},
+            {"voxel", r.voxel},
+            {"scan_index", scan_index}}},
+          {"diameter", r.diameter},
+          {"multiview_iterations", r.multiview_iterations},
+          {"settings", stitch_settings_json(s)},
+          {"warnings", to_json(r.warnings)},
+          {"timings",
+           {{"pairs_ms", t.pairs_ms},
+            {"edges_ms", t.edges_ms},
+            {"graph_ms", t.graph_ms},
+            {"multiview_ms", t.multiview_ms},
+            {"merge_ms", t.merge_ms},
+            {"total_ms", t.total_ms}}}};
 }
 
 nlohmann::json rectify_report(const RectifyResult& r, const RectifySettings& s,

@@ -18,6 +18,7 @@
 #include "align3d/find.hpp"
 #include "align3d/inspect.hpp"
 #include "align3d/plane/rectify.hpp"
+#include "align3d/stitch.hpp"
 #include "align3d/warning.hpp"
 
 namespace align3d::report {
@@ -52,6 +53,16 @@ nlohmann::json inspection_report(const InspectResult& result, const InspectSetti
 // the scene, the settings used, the timings and every warning.
 nlohmann::json find_report(const FindResult& result, const FindSettings& settings,
                            const InputInfo& model, const InputInfo& scene);
+
+// The report of one stitch (`align3d stitch`; docs/report.md, "stitch"): per scan in input order
+// its pose (scan_0 ≈ T·scan_k), whether it was connected and its residual; every edge found (kept
+// or not) with its pose, overlap, RMS, residuals against the graph and information matrix; the
+// merged cloud (`merged_file` as written, "" when not; `scan_index`: whether it carries the `scan`
+// property), the settings, the timings and every warning. `scans` names each input (its path, ""
+// for data in memory) and must have one entry per scan of `result` (std::invalid_argument).
+nlohmann::json stitch_report(const StitchResult& result, const StitchSettings& settings,
+                             const std::vector<InputInfo>& scans, const std::string& merged_file,
+                             bool scan_index);
 
 // The report of one plane correction (`align3d rectify`; docs/report.md, "rectify").
 nlohmann::json rectify_report(const RectifyResult& result, const RectifySettings& settings,

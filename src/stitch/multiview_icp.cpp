@@ -1,0 +1,150 @@
+#include "align3d/stitch/multiview_icp.hpp"
+
+#include <Eigen/Cholesky>
+#include <algorithm>
+#include <cmath>
+
+#include "align3d/icp/kernels.hpp"
+#include "align3d/se3.hpp"
+#include "detail/parallel.hpp"
+
+namespace align3d {
+
+namespace {
+
+// Pairs whose normals differ by more than 45° are not the same surface.
+constexpr double kMinNormalCosine = 0.7071;
+
+// The sums of one directed link a → b: the blocks of the normal equations it touches.
+struct LinkSums {
+  Matrix6d aa = Matrix6d::Zero(), ab = Matrix6d::Zero(), bb = Matrix6d::Zero();
+  Vector6d ga = Vector6d::Zero(), gb = Vector6d::Zero();
+  std::vector<double> distances;  // filled when collecting residuals
+
+  void operator+=(const LinkSums& o) {
+    aa += o.aa, ab += o.ab, bb += o.bb, ga += o.ga, gb += o.gb;
+    distances.insert(distances.end(), o.distances.begin(), o.distances.end());
+  }
+};
+
+struct Pass {
+  const std::vector<MultiviewScan>& scans;
+  const std::vector<Eigen::Isometry3d>& poses;
+  Eigen::Vector3d centre;
+  const MultiviewSettings& settings;
+  bool collect;
+
+  // r = n·(x_a − x_b) in node 0's frame; left updates about `centre`: x ← x + ω × (x − c) + v for
+  // each pose, the normal n = R_b·n_b turning with b.
+  LinkSums link(std::size_t a, std::size_t b) const {
+    const MultiviewScan& sa = scans[a];
+    const MultiviewScan& sb = scans[b];
+    const Eigen::Isometry3d a_in_b = poses[b].inverse() * poses[a];
+    const double sq_max = settings.max_distance * settings.max_distance;
+    const double scale = settings.max_distance / 2;
+    return parallel_reduce(
+        sa.sample.size(), settings.threads, LinkSums{},
+        [&](LinkSums& acc, std::size_t i) {
+          const Eigen::Vector3d& p = sa.cloud->positions[sa.sample[i]];
+          Neighbor nb;
+          if (!sb.tree->nearest(a_in_b * p, nb, sq_max)) return;
+          const Eigen::Vector3d xa = poses[a] * p;
+          const Eigen::Vector3d xb = poses[b] * sb.cloud->positions[nb.index];
+          const Eigen::Vector3d n = poses[b].linear() * sb.cloud->normals[nb.index];
+          // Both scans see the surface from outside, their normals towards their sensors: a
+          // partner whose normal turns away lies on another face (across an edge, the far side
+          // of a thin wall), which the other scan may not see at all.
+          if (n.dot(poses[a].linear() * sa.cloud->normals[sa.sample[i]]) < kMinNormalCosine) return;
+          const double r = n.dot(xa - xb);
+          if (collect) acc.distances.push_back(std::abs(r));
+          const double w = geman_mcclure_weight(r, scale);
+          Vector6d ja, jb;
+          ja << (xa - centre).cross(n), n;
+          jb << n.cross(xa - xb) - (xb - centre).cross(n), -n;
+          acc.aa.noalias() += w * ja * ja.transpose();
+          acc.ab.noalias() += w * ja * jb.transpose();
+          acc.bb.noalias() += w * jb * jb.transpose();
+          acc.ga += w * r * ja;
+          acc.gb += w * r * jb;
+        },
+        [](LinkSums& x, const LinkSums& y) { x += y; });
+  }
+};
+
+// x ← exp(ω)·(x − c) + c + v.
+Eigen::Isometry3d update_about(const Vector6d& xi, const Eigen::Vector3d& c) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = so3_exp(xi.head<3>());
+  T.translation() = c + xi.tail<3>() - T.linear() * c;
+  return T;
+}
+
+Eigen::Vector3d common_centre(const std::vector<MultiviewScan>& scans,
+                              const std::vector<Eigen::Isometry3d>& poses) {
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  double count = 0;
+  for (std::size_t k = 0; k < scans.size(); ++k)
+    for (std::uint32_t i : scans[k].sample) sum += poses[k] * scans[k].cloud->positions[i], ++count;
+  return count > 0 ? Eigen::Vector3d(sum / count) : Eigen::Vector3d::Zero();
+}
+
+}  // namespace
+
+MultiviewResult multiview_icp(const std::vector<MultiviewScan>& scans,
+                              const std::vector<std::pair<std::size_t, std::size_t>>& links,
+                              std::vector<Eigen::Isometry3d> poses,
+                              const MultiviewSettings& settings) {
+  const std::size_t n = scans.size();
+  MultiviewResult out;
+  const Eigen::Vector3d centre = common_centre(scans, poses);
+  std::vector<bool> linked(n, false);
+  for (const auto& [a, b] : links) linked[a] = linked[b] = true;
+  for (int it = 0; it < settings.max_iterations; ++it) {
+    const Pass pass{scans, poses, centre, settings, false};
+    Eigen::MatrixXd H = Eigen::MatrixXd::Zero(6 * n, 6 * n);
+    Eigen::VectorXd g = Eigen::VectorXd::Zero(6 * n);
+    for (const auto& [x, y] : links)
+      for (const auto& [a, b] : {std::pair{x, y}, std::pair{y, x}}) {
+        const LinkSums s = pass.link(a, b);
+        H.block<6, 6>(6 * a, 6 * a) += s.aa;
+        H.block<6, 6>(6 * a, 6 * b) += s.ab;
+        H.block<6, 6>(6 * b, 6 * a) += s.ab.transpose();
+        H.block<6, 6>(6 * b, 6 * b) += s.bb;
+        g.segment<6>(6 * a) += s.ga;
+        g.segment<6>(6 * b) += s.gb;
+      }
+    // Node 0 and scans in no link stay: their rows and columns become the identity, with no
+    // gradient. A tiny ridge keeps a direction no pair constrains (a plane's slide) at rest.
+    const double ridge = 1e-12 * std::max(H.trace(), 1e-300);
+    for (std::size_t k = 0; k < n; ++k) {
+      if (k != 0 && linked[k]) {
+        H.block<6, 6>(6 * k, 6 * k).diagonal().array() += ridge;
+        continue;
+      }
+      H.middleRows(6 * k, 6).setZero(), H.middleCols(6 * k, 6).setZero();
+      H.block<6, 6>(6 * k, 6 * k).setIdentity(), g.segment<6>(6 * k).setZero();
+    }
+    const Eigen::VectorXd xi = H.ldlt().solve(-g);
+    double largest = 0;
+    for (std::size_t k = 0; k < n; ++k) {
+      const Vector6d step = xi.segment<6>(6 * k);
+      poses[k] = update_about(step, centre) * poses[k];
+      largest = std::max(largest, step.head<3>().norm() * settings.length + step.tail<3>().norm());
+    }
+    out.iterations = it + 1;
+    if (largest < settings.tolerance) break;
+  }
+  out.residuals.assign(n, {});
+  const Pass last{scans, poses, centre, settings, true};
+  for (const auto& [x, y] : links)
+    for (const auto& [a, b] : {std::pair{x, y}, std::pair{y, x}}) {
+      const LinkSums s = last.link(a, b);
+      auto& d = out.residuals[a].distances;
+      d.insert(d.end(), s.distances.begin(), s.distances.end());
+    }
+  for (MultiviewPairs& r : out.residuals) r.count = r.distances.size();
+  out.poses = std::move(poses);
+  return out;
+}
+
+}  // namespace align3d
