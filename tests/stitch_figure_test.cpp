@@ -4,7 +4,6 @@
 
 #include <gtest/gtest.h>
 
-#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <stdexcept>
@@ -150,19 +149,15 @@ TEST_F(StitchFigureTest, TheLegendShowsEveryScanUnderTheViews) {
         << scan;
 }
 
-TEST_F(StitchFigureTest, AMillionPointsAreThinnedEvenlyAndDrawQuickly) {
+TEST_F(StitchFigureTest, AMillionPointsAreThinnedEvenly) {
   StitchResult r = empty_result(3);
   for (int i = 0; i < 1000; ++i)
     for (int j = 0; j < 1000; ++j)
       add_point(r, Eigen::Vector3d(0.1 * i, 0.1 * j, std::sin(0.01 * i)), (i / 334) % 3);
   StitchFigureSettings s;
   s.max_points = 300000;
-  const auto start = std::chrono::steady_clock::now();
   const StitchFigureInfo info = write_stitch_figure(r, dir_ / "f.png", s);
-  const double seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   EXPECT_EQ(info.drawn_points, 250000u);  // every 4th of 10⁶
-  if (!test::kSanitized) EXPECT_LT(seconds, 5.0);
   const Image image(dir_ / "f.png");
   for (std::size_t scan = 0; scan < 3; ++scan)
     EXPECT_GT(image.count([scan](Image::Rgb8 c) { return has_colour(c, scan); }), 1000) << scan;
