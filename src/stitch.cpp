@@ -36,11 +36,13 @@ double ms_since(Clock::time_point t) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
 }
 
-// A scan as every step uses it: its points with normals towards its sensor, its tree and scale.
+// A scan as every step uses it: its points with normals towards its sensor, its tree and scale,
+// and where its sensor was (its frame).
 struct ScanData {
   PointCloud cloud;
   std::unique_ptr<KdTree> tree;
   CloudScale scale;
+  Eigen::Vector3d viewpoint = Eigen::Vector3d::Zero();
 };
 
 void check_settings(const StitchSettings& s, std::size_t scans) {
@@ -66,8 +68,9 @@ std::vector<ScanData> prepare_scans(const std::vector<PointCloud>& scans, const 
     ScanData& d = out[k];
     d.cloud = scans[k];
     d.tree = std::make_unique<KdTree>(d.cloud.positions, s.threads);
+    if (!s.viewpoints.empty()) d.viewpoint = s.viewpoints[k];
     NormalSettings ns;
-    ns.viewpoint = s.viewpoints.empty() ? Eigen::Vector3d::Zero() : s.viewpoints[k];
+    ns.viewpoint = d.viewpoint;
     ns.threads = s.threads;
     estimate_normals(d.cloud, *d.tree, ns);  // the file's normals may point anywhere
     d.scale = measure_scale(d.cloud, *d.tree);
@@ -113,7 +116,8 @@ struct DepthMap {
   }
 };
 
-DepthMap depth_map(const ScanData& scan, const Eigen::Vector3d& viewpoint) {
+DepthMap depth_map(const ScanData& scan) {
+  const Eigen::Vector3d& viewpoint = scan.viewpoint;
   DepthMap m;
   m.viewpoint = viewpoint;
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
@@ -155,8 +159,6 @@ double free_space_share(const ScanData& scan, const Eigen::Isometry3d& T, const 
   return seen ? static_cast<double>(violations) / static_cast<double>(seen) : 0.0;
 }
 
-// Step 1: every pair registered by the global stage alone; those it lays onto each other become
-// edges (not yet refined). Each scan's descriptors, as a target, are kept across its pairs.
 // The larger of the two shares of a pair's points in front of what the other sensor saw.
 double pair_free_space(const ScanData& a, const ScanData& b, const DepthMap& map_a,
                        const DepthMap& map_b, const Eigen::Isometry3d& T, double margin) {
@@ -164,6 +166,8 @@ double pair_free_space(const ScanData& a, const ScanData& b, const DepthMap& map
                   free_space_share(b, T.inverse(), map_a, margin));
 }
 
+// Step 1: every pair registered by the global stage alone; those it lays onto each other become
+// edges (not yet refined). Each scan's descriptors, as a target, are kept across its pairs.
 std::vector<StitchEdge> find_pairs(const std::vector<ScanData>& scans,
                                    const std::vector<DepthMap>& maps, const StitchSettings& s) {
   std::vector<StitchEdge> edges;
@@ -380,9 +384,7 @@ StitchResult stitch(const std::vector<PointCloud>& scans, const StitchSettings& 
 
   auto t = Clock::now();
   std::vector<DepthMap> maps;
-  for (std::size_t k = 0; k < data.size(); ++k)
-    maps.push_back(depth_map(
-        data[k], settings.viewpoints.empty() ? Eigen::Vector3d::Zero() : settings.viewpoints[k]));
+  for (const ScanData& d : data) maps.push_back(depth_map(d));
   r.edges = find_pairs(data, maps, settings);
   r.timings.pairs_ms = ms_since(t);
   t = Clock::now();

@@ -91,6 +91,19 @@ double cap_height(cairo_t* cr) {
   return -e.y_bearing;
 }
 
+TitleBand title_band(cairo_t* cr, const Fonts& fonts, bool has_title, double pad, double gap) {
+  TitleBand b;
+  b.top = pad;
+  if (has_title) {
+    set_font(cr, fonts.title);
+    b.title_y = b.top + 0.5 * cap_height(cr);
+    b.top += 1.35 * cap_height(cr) + 2 * gap;
+  }
+  set_font(cr, {fonts.label.size, true});
+  b.panel_title_h = std::round(1.35 * cap_height(cr) + 1.5 * gap);
+  return b;
+}
+
 void draw_text(cairo_t* cr, const std::string& s, double x, double y, double ha) {
   cairo_move_to(cr, x - ha * text_width(cr, s), y + 0.5 * cap_height(cr));
   cairo_show_text(cr, s.c_str());

@@ -58,6 +58,14 @@ double cap_height(cairo_t* cr);
 // Draws s with its horizontal anchor at fraction `ha` of its width (0 left, 0.5 centre, 1 right)
 // and its capitals vertically centred on y.
 void draw_text(cairo_t* cr, const std::string& s, double x, double y, double ha);
+
+// The header of a figure of titled panels, from `pad` down: the figure's title line when it has
+// one (`title_y`: the centre of its capitals), then where the panels' title lines start (`top`) and
+// the height of such a line in the bold label font (`panel_title_h`). `gap` spaces the lines.
+struct TitleBand {
+  double title_y = 0, top = 0, panel_title_h = 0;
+};
+TitleBand title_band(cairo_t* cr, const Fonts& fonts, bool has_title, double pad, double gap);
 // Text rotated to read upwards, centred on (x, y).
 void draw_vertical_text(cairo_t* cr, const std::string& s, double x, double y);
 

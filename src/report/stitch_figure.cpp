@@ -98,14 +98,10 @@ FigureLayout layout_figure(cairo_t* cr, const StitchFigureSettings& s,
   FigureLayout L;
   L.fonts = detail::fonts_for(s.width, s.height);
   L.pad = L.fonts.tick.size, L.gap = 0.5 * L.fonts.tick.size;
-  double top = L.pad;
-  if (!s.title.empty()) {
-    detail::set_font(cr, L.fonts.title);
-    L.title_y = top + 0.5 * detail::cap_height(cr);
-    top += 1.35 * detail::cap_height(cr) + 2 * L.gap;
-  }
-  detail::set_font(cr, {L.fonts.label.size, true});
-  L.panel_title_h = std::round(1.35 * detail::cap_height(cr) + 1.5 * L.gap);
+  const detail::TitleBand band = detail::title_band(cr, L.fonts, !s.title.empty(), L.pad, L.gap);
+  const double top = band.top;
+  L.title_y = band.title_y;
+  L.panel_title_h = band.panel_title_h;
   detail::set_font(cr, L.fonts.legend);
   const double row = std::round(1.6 * L.fonts.legend.size), swatch = 0.8 * L.fonts.legend.size;
   L.legend_text_x = swatch + L.gap;

@@ -55,14 +55,10 @@ ViewsLayout layout_views(cairo_t* cr, const ViewsFigureSettings& s, const BarLab
   }
   L.pad = L.fonts.tick.size;
   L.gap = 0.5 * L.fonts.tick.size;
-  double top = L.pad;
-  if (!s.title.empty()) {
-    detail::set_font(cr, L.fonts.title);
-    L.title_y = top + 0.5 * detail::cap_height(cr);
-    top += 1.35 * detail::cap_height(cr) + 2 * L.gap;
-  }
-  detail::set_font(cr, {L.fonts.label.size, true});
-  L.panel_title_h = std::round(1.35 * detail::cap_height(cr) + 1.5 * L.gap);
+  const detail::TitleBand band = detail::title_band(cr, L.fonts, !s.title.empty(), L.pad, L.gap);
+  const double top = band.top;
+  L.title_y = band.title_y;
+  L.panel_title_h = band.panel_title_h;
   for (int k = 0; k < 4; ++k) {
     const int row = k / 2, col = k % 2;
     L.at[static_cast<std::size_t>(k)] = {
