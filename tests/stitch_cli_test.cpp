@@ -190,9 +190,10 @@ TEST(StitchReport, HasEveryKeyInItsShape) {
   EXPECT_TRUE(j["poses"][2]["residual"]["rms"].is_null());
   ASSERT_EQ(j["edges"].size(), 2u);
   for (const auto& e : j["edges"]) {
-    for (const char* key : {"source", "target", "source_file", "target_file", "transformation",
-                            "overlap", "rms", "kept", "status", "rotation_residual_deg",
-                            "translation_residual", "information", "warnings"})
+    for (const char* key :
+         {"source", "target", "source_file", "target_file", "transformation", "overlap", "rms",
+          "pairs", "free_space", "kept", "status", "rotation_residual_deg", "translation_residual",
+          "information", "warnings"})
       EXPECT_TRUE(e.contains(key)) << key;
     ASSERT_EQ(e["information"].size(), 6u);
     for (const auto& row : e["information"]) EXPECT_EQ(row.size(), 6u);

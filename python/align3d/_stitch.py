@@ -53,9 +53,9 @@ class StitchResult(_Report):
     def edges(self) -> List[Dict[str, Any]]:
         """Every pair found to overlap, kept or not, by (source, target): dicts with ``source``,
         ``target`` (input indices), ``source_file``, ``target_file``, ``transformation`` (4x4,
-        target ≈ T·source), ``overlap``, ``rms``, ``kept``, ``status`` ("" when kept, else
-        ``pruned`` or ``weak``), ``rotation_residual_deg``, ``translation_residual``,
-        ``information`` (6x6 array) and ``warnings``."""
+        target ≈ T·source), ``overlap``, ``rms``, ``pairs``, ``free_space``, ``kept``, ``status``
+        ("" when kept, else ``weak``, ``contradicted`` or ``pruned``), ``rotation_residual_deg``,
+        ``translation_residual``, ``information`` (6x6 array) and ``warnings``."""
         out = []
         for e in self._report["edges"]:
             d = dict(e)

@@ -77,6 +77,8 @@ nlohmann::json stitch_edge_json(const StitchEdge& e, const std::vector<InputInfo
           {"transformation", to_json(e.transformation)},
           {"overlap", e.overlap},
           {"rms", e.rms},
+          {"pairs", e.pairs},
+          {"free_space", e.free_space},
           {"kept", e.kept},
           {"status", e.status},
           {"rotation_residual_deg", e.rotation_residual_deg},
