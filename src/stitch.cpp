@@ -141,15 +141,27 @@ DepthMap depth_map(const ScanData& scan) {
   return m;
 }
 
+// Which points a free-space count takes: all, or those whose surface faces the other sensor at
+// less than 70° from its line of sight (kFacingCosine), every `stride`-th.
+struct FreeSpacePoints {
+  bool facing_only = false;
+  std::size_t stride = 1;
+};
+constexpr double kFacingCosine = 0.34;  // cos 70°
+
 // The share of `scan`'s points, moved by T into the frame of the scan `map` was made of, that
 // lie in front of what that sensor saw (by more than `margin`): the sensor would have seen them
 // there, so the pose is wrong. Only points in directions the sensor saw anything count.
 double free_space_share(const ScanData& scan, const Eigen::Isometry3d& T, const DepthMap& map,
-                        double margin) {
+                        double margin, FreeSpacePoints which = {}) {
   std::size_t seen = 0, violations = 0;
-  for (const Eigen::Vector3d& p : scan.cloud.positions) {
+  for (std::size_t i = 0; i < scan.cloud.size(); i += which.stride) {
+    const Eigen::Vector3d p = T * scan.cloud.positions[i];
+    if (which.facing_only &&
+        (T.linear() * scan.cloud.normals[i]).dot((map.viewpoint - p).normalized()) < kFacingCosine)
+      continue;
     double depth = 0;
-    const auto k = map.key(T * p, depth);
+    const auto k = map.key(p, depth);
     if (!k) continue;
     const auto it = map.nearest.find(*k);
     if (it == map.nearest.end()) continue;
@@ -161,9 +173,10 @@ double free_space_share(const ScanData& scan, const Eigen::Isometry3d& T, const 
 
 // The larger of the two shares of a pair's points in front of what the other sensor saw.
 double pair_free_space(const ScanData& a, const ScanData& b, const DepthMap& map_a,
-                       const DepthMap& map_b, const Eigen::Isometry3d& T, double margin) {
-  return std::max(free_space_share(a, T, map_b, margin),
-                  free_space_share(b, T.inverse(), map_a, margin));
+                       const DepthMap& map_b, const Eigen::Isometry3d& T, double margin,
+                       FreeSpacePoints which = {}) {
+  return std::max(free_space_share(a, T, map_b, margin, which),
+                  free_space_share(b, T.inverse(), map_a, margin, which));
 }
 
 // Step 1: every pair registered by the global stage alone; those it lays onto each other become
@@ -343,6 +356,31 @@ void merge(const std::vector<ScanData>& scans, StitchResult& r, const StitchSett
   r.merged = voxel_downsample(all, r.voxel, labels, r.merged_scan);
 }
 
+// Step 6: every two connected scans at their final poses, whether or not an edge joins them, must
+// not contradict each other: no more than kMaxInconsistency of one's points (facing the other
+// sensor; at most ~5000 a scan) in front of what the other saw. Wrong edges that agree with each
+// other (a box's side views turned by a half, each fitting) pass every pairwise test and the pose
+// graph, and only show here, between scans no edge joined. Returns the worst pairs, worst first.
+std::vector<std::tuple<double, std::size_t, std::size_t>> inconsistent_pairs(
+    const std::vector<ScanData>& scans, const std::vector<DepthMap>& maps,
+    const std::vector<StitchScan>& out) {
+  std::vector<std::tuple<double, std::size_t, std::size_t>> bad;
+  for (std::size_t a = 0; a < scans.size(); ++a)
+    for (std::size_t b = a + 1; b < scans.size(); ++b) {
+      if (!out[a].connected || !out[b].connected) continue;
+      FreeSpacePoints which;
+      which.facing_only = true;
+      which.stride =
+          std::max<std::size_t>(1, std::max(scans[a].cloud.size(), scans[b].cloud.size()) / 5000);
+      const Eigen::Isometry3d T = out[b].transformation.inverse() * out[a].transformation;
+      const double share = pair_free_space(scans[a], scans[b], maps[a], maps[b], T,
+                                           2 * pair_reach(scans[a], scans[b]), which);
+      if (share > kMaxInconsistency) bad.emplace_back(share, a, b);
+    }
+  std::sort(bad.rbegin(), bad.rend());
+  return bad;
+}
+
 std::string format_residual(const StitchEdge& e) {
   char text[96];
   std::snprintf(text, sizeof text, "%.3g° and %.3g apart", e.rotation_residual_deg,
@@ -350,7 +388,14 @@ std::string format_residual(const StitchEdge& e) {
   return text;
 }
 
-void add_warnings(StitchResult& r, const std::vector<StitchEdge>& edges) {
+std::string format_share(double share) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.0f %%", 100 * share);
+  return text;
+}
+
+void add_warnings(StitchResult& r, const std::vector<StitchEdge>& edges,
+                  const std::vector<std::tuple<double, std::size_t, std::size_t>>& inconsistent) {
   for (std::size_t k = 0; k < r.scans.size(); ++k) {
     const StitchScan& s = r.scans[k];
     if (!s.connected)
@@ -361,6 +406,16 @@ void add_warnings(StitchResult& r, const std::vector<StitchEdge>& edges) {
       r.warnings.push_back({"single_edge_scan", "scan " + std::to_string(k) +
                                                     " is held by one edge only: no loop checks "
                                                     "its pose"});
+  }
+  if (!inconsistent.empty()) {
+    const auto& [share, a, b] = inconsistent.front();
+    r.warnings.push_back(
+        {"inconsistent_scans",
+         std::to_string(inconsistent.size()) +
+             " pair(s) of stitched scans contradict each other, " + "the worst scans " +
+             std::to_string(a) + " and " + std::to_string(b) + " (" + format_share(share) +
+             " of one lies where the other's sensor saw through it): some " +
+             "pose is wrong, e.g. a scan turned onto a look-alike face of the part"});
   }
   for (const StitchEdge& e : edges)
     if (e.status == "pruned")
@@ -413,13 +468,14 @@ StitchResult stitch(const std::vector<PointCloud>& scans, const StitchSettings& 
     residual_statistics(mv.residuals[k], r.scans[k]);
   }
   measure_edges(r.edges, r.scans);
+  const auto inconsistent = inconsistent_pairs(data, maps, r.scans);
   r.timings.multiview_ms = ms_since(t);
 
   t = Clock::now();
   if (settings.progress) settings.progress({"merge", 0, 0});
   merge(data, r, settings);
   r.timings.merge_ms = ms_since(t);
-  add_warnings(r, r.edges);
+  add_warnings(r, r.edges, inconsistent);
   r.timings.total_ms = ms_since(start);
   return r;
 }

@@ -175,6 +175,8 @@ TEST(Stitch, RingOfViewsWithinATenthOfADegree) {
   }
   EXPECT_GT(r.merged.size(), 1000u);
   EXPECT_EQ(r.merged_scan.size(), r.merged.size());
+  // Right poses: the final check finds no two scans contradicting each other.
+  for (const Warning& w : r.warnings) EXPECT_NE(w.code, "inconsistent_scans") << w.message;
 }
 
 // Shuffled input, same poses up to the first scan's frame: the relative pose of every two scans

@@ -159,6 +159,8 @@ constexpr const char* kStitchHelp =
     "loop, and the scans are merged into one cloud, one point per voxel, with normals towards "
     "each\n"
     "scan's sensor (a PCD's VIEWPOINT, else its origin) and the scan each point came from.\n"
+    "Last, every two stitched scans are checked against each other's free space: a warning\n"
+    "(inconsistent_scans) says when some pose must be wrong.\n"
     "Each pose maps its scan into the first scan's frame (scan_0 ≈ T·scan_k); an edge's maps its\n"
     "source into its target's frame. Prints each scan's pose, connection and residual.\n"
     "Exit codes: 0 ok, 2 usage (fewer than two scans), 3 a scan or the list cannot be read, 4 a\n"
