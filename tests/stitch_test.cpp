@@ -47,17 +47,23 @@ PoseGraphEdge ring_edge(const std::vector<Eigen::Isometry3d>& X, std::size_t s, 
   return e;
 }
 
+// Every node of the ring joined to its next and its next but one: exact edges.
+std::vector<PoseGraphEdge> ring_edges(const std::vector<Eigen::Isometry3d>& X) {
+  std::vector<PoseGraphEdge> edges;
+  for (std::size_t k = 0; k < X.size(); ++k) {
+    edges.push_back(ring_edge(X, k, (k + 1) % X.size()));
+    edges.push_back(ring_edge(X, k, (k + 2) % X.size()));
+  }
+  return edges;
+}
+
 double rotation_error_deg(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
   return pose_error(a, b).rotation_deg;
 }
 
 TEST(PoseGraph, RecoversRingPosesFromConsistentEdges) {
   const auto X = ring_poses(8);
-  std::vector<PoseGraphEdge> edges;
-  for (std::size_t k = 0; k < 8; ++k) {
-    edges.push_back(ring_edge(X, k, (k + 1) % 8));
-    edges.push_back(ring_edge(X, k, (k + 2) % 8));
-  }
+  std::vector<PoseGraphEdge> edges = ring_edges(X);
   const PoseGraphResult r = optimize_pose_graph(8, edges, {});
   for (std::size_t k = 0; k < 8; ++k) {
     EXPECT_TRUE(r.connected[k]);
@@ -71,11 +77,7 @@ TEST(PoseGraph, RecoversRingPosesFromConsistentEdges) {
 // pruned and the others' poses are exact.
 TEST(PoseGraph, PrunesAnInjectedWrongEdge) {
   const auto X = ring_poses(8);
-  std::vector<PoseGraphEdge> edges;
-  for (std::size_t k = 0; k < 8; ++k) {
-    edges.push_back(ring_edge(X, k, (k + 1) % 8));
-    edges.push_back(ring_edge(X, k, (k + 2) % 8));
-  }
+  std::vector<PoseGraphEdge> edges = ring_edges(X);
   edges[5] = ring_edge(X, edges[5].source, edges[5].target,
                        rigid_transform(15, Eigen::Vector3d(1, 2, 3), {20, 0, 0}));
   edges[5].weight = 0.9;

@@ -147,6 +147,11 @@ void add_init(CLI::App* sub, std::string& init, const std::string& matrix_file) 
       ->capture_default_str();
 }
 
+void add_strict(CLI::App* sub, bool& strict) {
+  sub->add_flag("--strict", strict,
+                "Exit with code 7 when the result comes with warnings (outputs are written)");
+}
+
 void add_seed(CLI::App* sub, std::uint64_t& seed) {
   sub->add_option("--seed", seed, "Seed of the global stage (same seed, same pose)")
       ->check(CLI::NonNegativeNumber)  // CLI11 would wrap -1 to 2^64 - 1

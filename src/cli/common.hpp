@@ -91,6 +91,9 @@ class ProgressLine {
 // Adds --quiet and --threads, shared by the commands that run long work.
 void add_quiet(CLI::App* sub, bool& quiet);
 void add_threads(CLI::App* sub, int& threads);
+// Adds --strict: exit code 7 when the result comes with warnings, every output written first (each
+// command writes its outputs before report_warnings gives the code).
+void add_strict(CLI::App* sub, bool& strict);
 // For numeric options: CLI11's NonNegativeNumber (and PositiveNumber) let "nan" through (every
 // comparison with NaN is false) and accept "inf"; this requires a finite number >= 0.
 const CLI::Validator& finite_non_negative();

@@ -159,7 +159,7 @@ Command add_find(CLI::App& app, Streams io) {
   sub->add_option("--image", o->image,
                   "Write the depth image with each instance's mask, outline and rank (PNG)");
   add_seed(sub, s.seed);
-  sub->add_flag("--strict", o->strict, "Exit with code 7 when the result comes with warnings");
+  add_strict(sub, o->strict);
   add_quiet(sub, o->quiet);
   add_threads(sub, s.threads);
   return {sub, [o, io] { return run_find(*o, io); }};

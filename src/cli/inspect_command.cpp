@@ -204,7 +204,7 @@ Command add_inspect(CLI::App& app, Streams io) {
       ->check(finite_non_negative())
       ->capture_default_str();
   add_seed(sub, s.align.seed);
-  sub->add_flag("--strict", o->strict, "Exit with code 7 when the result comes with warnings");
+  add_strict(sub, o->strict);
   add_quiet(sub, o->quiet);
   add_threads(sub, s.threads);
   return {sub, [o, io] { return run_inspect(*o, io); }};

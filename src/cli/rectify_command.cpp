@@ -68,8 +68,7 @@ Command add_rectify(CLI::App& app, Streams io) {
   sub->add_option("--seed", o->seed, "RANSAC seed (robust fit)")
       ->check(CLI::NonNegativeNumber)  // CLI11 would wrap -1 to 2^64 - 1
       ->capture_default_str();
-  sub->add_flag("--strict", o->strict,
-                "Exit with code 7 when the result comes with warnings (outputs are written)");
+  add_strict(sub, o->strict);
   add_quiet(sub, o->quiet);
   return {sub, [o, io, up] {
             o->up_given = up->count() > 0;

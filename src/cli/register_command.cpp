@@ -200,8 +200,7 @@ Command add_register(CLI::App& app, Streams io) {
   sub->add_option("--normal-k", s.refine.normals.k, "Neighbours for PCA normals of the target")
       ->check(CLI::Range(3, 1000))
       ->capture_default_str();
-  sub->add_flag("--strict", o->strict,
-                "Exit with code 7 when the result comes with warnings (outputs are written)");
+  add_strict(sub, o->strict);
   add_quiet(sub, o->quiet);
   add_threads(sub, s.threads);
   return {sub, [o, io] { return run_register(*o, io); }};

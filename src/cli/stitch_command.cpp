@@ -212,7 +212,7 @@ Command add_stitch(CLI::App& app, Streams io) {
   sub->add_option("--html", o->html,
                   "Write an offline HTML page: the figure, the poses, the edges, the warnings");
   add_seed(sub, s.seed);
-  sub->add_flag("--strict", o->strict, "Exit with code 7 when the result comes with warnings");
+  add_strict(sub, o->strict);
   add_quiet(sub, o->quiet);
   add_threads(sub, s.threads);
   return {sub, [o, io] { return run_stitch(*o, io); }};
