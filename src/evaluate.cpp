@@ -37,6 +37,14 @@ AlignSettings method_settings(EvalMethod method, std::uint64_t seed, int threads
     case EvalMethod::kPointToPlane:
       s.init = InitPolicy::kIdentity;
       break;
+    case EvalMethod::kGicp:
+      s.init = InitPolicy::kIdentity;
+      s.refine.method = IcpMethod::kGicp;
+      break;
+    case EvalMethod::kSymmetric:
+      s.init = InitPolicy::kIdentity;
+      s.refine.method = IcpMethod::kSymmetric;
+      break;
     case EvalMethod::kGlobal:
       s.init = InitPolicy::kGlobal;
       break;
@@ -54,6 +62,10 @@ const char* to_string(EvalMethod m) {
       return "point-to-point ICP";
     case EvalMethod::kPointToPlane:
       return "point-to-plane ICP";
+    case EvalMethod::kGicp:
+      return "GICP";
+    case EvalMethod::kSymmetric:
+      return "symmetric ICP";
     case EvalMethod::kGlobal:
       return "global (fpfh) + point-to-plane ICP";
     case EvalMethod::kAuto:
@@ -79,9 +91,13 @@ std::vector<EvalScene> evaluation_scenes() {
 TrialResult run_trial(const EvalScene& scene, EvalMethod method, double angle_deg,
                       const Eigen::Vector3d& axis, const Eigen::Vector3d& t, std::uint64_t seed,
                       int threads) {
-  const Eigen::Isometry3d P = rigid_transform(angle_deg, axis, t);
-  const PointCloud moved = transformed(scene.source, P);
-  const Eigen::Isometry3d truth = scene.T_target_source * P.inverse();  // target ≈ truth·moved
+  // The source placed on the target, then turned about the target's centroid c and shifted: the
+  // identity is then exactly `angle_deg` and |t| (at c) from the truth.
+  const Eigen::Vector3d c = centroid(scene.target);
+  const Eigen::Isometry3d P =
+      Eigen::Translation3d(t + c) * rigid_transform(angle_deg, axis) * Eigen::Translation3d(-c);
+  const PointCloud moved = transformed(scene.source, P * scene.T_target_source);
+  const Eigen::Isometry3d truth = P.inverse();  // target ≈ truth·moved
 
   const auto start = std::chrono::steady_clock::now();
   const AlignResult r = align(moved, scene.target, method_settings(method, seed, threads));

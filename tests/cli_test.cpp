@@ -254,6 +254,13 @@ TEST_F(CliBadInput, WrongFlags) {
   expect_failure({"register", scene("scan.ply"), scene("model.ply"), "--bogus"},
                  code(ExitCode::kUsage), "--bogus");
   expect_failure({"register", scene("scan.ply")}, code(ExitCode::kUsage), "TARGET");
+  expect_failure({"register", scene("scan.ply"), scene("model.ply"), "--kernel", "gm"},
+                 code(ExitCode::kUsage), "--kernel");
+  expect_failure({"register", scene("scan.ply"), scene("model.ply"), "--kernel-scale", "1"},
+                 code(ExitCode::kUsage), "needs a kernel");
+  expect_failure({"register", scene("scan.ply"), scene("model.ply"), "--kernel", "huber",
+                  "--kernel-scale", "nan"},
+                 code(ExitCode::kUsage), "--kernel-scale");
 }
 
 // execute() is run() with the errors let through (the Python binding maps them): the same
@@ -390,11 +397,12 @@ TEST(CliEvaluate, QuickRunWritesTheTableAndTheBasin) {
   test::TempDir d("evaluate");
   const CliRun r = run({"evaluate", d.path().string(), "--quick"});
   ASSERT_EQ(r.code, 0) << r.err;
-  for (const char* f : {"evaluation.md", "evaluation.json", "basin.svg", "basin.png"})
+  for (const char* f : {"evaluation.md", "evaluation.json", "basin_chapter.png",
+                        "basin_bracket.svg", "basin_bumpy-sphere.png"})
     EXPECT_TRUE(std::filesystem::exists(d / f)) << f;
   const auto j = nlohmann::json::parse(read_text(d / "evaluation.json"));
-  EXPECT_EQ(j["success"].size(), 12u);  // 3 scenes × 4 methods
-  EXPECT_EQ(j["basin"].size(), 4u);
+  EXPECT_EQ(j["success"].size(), 18u);  // 3 scenes × 6 methods
+  EXPECT_EQ(j["basin"].size(), 18u);
 }
 
 // ---- convert ----

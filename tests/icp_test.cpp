@@ -308,15 +308,18 @@ TEST_F(IcpScene, TooFewCorrespondencesStopsWithoutConverging) {
 TEST_F(IcpScene, SameBitsWithOneAndTwoThreads) {
   // 8000+ source points: several 1024-point chunks, so the reduction order is actually exercised.
   ASSERT_GT(scene_->scan.size(), 4096u);
-  for (const IcpMethod method : {IcpMethod::kPointToPoint, IcpMethod::kPointToPlane}) {
+  PointCloud scan = scene_->scan;
+  estimate_normals(scan);
+  for (const IcpMethod method : kAllIcpMethods) {
     IcpSettings s = settings_for(method);
-    s.robust_scale = method == IcpMethod::kPointToPlane ? 1.0 : 0.0;
+    // A fixed scale, and the scale from each iteration's median residual.
+    s.kernel = method == IcpMethod::kPointToPoint ? RobustKernel::kNone : RobustKernel::kCauchy;
+    s.kernel_scale = method == IcpMethod::kPointToPlane ? 1.0 : 0.0;
+    s.covariance = true;
     s.threads = 1;
-    const IcpResult one =
-        icp(scene_->scan, scene_->model, *model_tree_, Eigen::Isometry3d::Identity(), s);
+    const IcpResult one = icp(scan, scene_->model, *model_tree_, Eigen::Isometry3d::Identity(), s);
     s.threads = 2;
-    const IcpResult two =
-        icp(scene_->scan, scene_->model, *model_tree_, Eigen::Isometry3d::Identity(), s);
+    const IcpResult two = icp(scan, scene_->model, *model_tree_, Eigen::Isometry3d::Identity(), s);
     EXPECT_TRUE(
         (one.T_target_source.matrix().array() == two.T_target_source.matrix().array()).all())
         << to_string(method);
@@ -324,6 +327,8 @@ TEST_F(IcpScene, SameBitsWithOneAndTwoThreads) {
     EXPECT_EQ(one.rms, two.rms);
     EXPECT_EQ(one.correspondences, two.correspondences);
     EXPECT_TRUE((one.hessian.array() == two.hessian.array()).all());
+    EXPECT_TRUE((one.covariance.array() == two.covariance.array()).all());
+    EXPECT_GT(one.covariance.trace(), 0.0);
     ASSERT_EQ(one.history.size(), two.history.size());
     for (std::size_t i = 0; i < one.history.size(); ++i) {
       EXPECT_EQ(one.history[i].rms, two.history[i].rms);

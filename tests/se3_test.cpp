@@ -189,12 +189,57 @@ TEST(Se3, GaussNewtonStepRecoversASmallMotionOnPlanarPairs) {
   EXPECT_LT((x - xi).cwiseAbs().maxCoeff(), 1e-5);
 }
 
-TEST(Se3, GemanMcClureWeight) {
-  EXPECT_EQ(geman_mcclure_weight(0.0, 2.0), 1.0);
-  EXPECT_DOUBLE_EQ(geman_mcclure_weight(2.0, 2.0), 0.25);   // (1 + 1)^−2
-  EXPECT_DOUBLE_EQ(geman_mcclure_weight(-6.0, 2.0), 0.01);  // (1 + 9)^−2, even in d
-  EXPECT_EQ(geman_mcclure_weight(123.0, 0.0), 1.0);         // scale <= 0: plain least squares
-  EXPECT_EQ(geman_mcclure_weight(123.0, -1.0), 1.0);
+// Ad(T) carries a left perturbation across T: T·exp(ξ)·T⁻¹ = exp(Ad(T)·ξ) to first order in ξ (the
+// residual is O(|ξ|²)), and a covariance with it.
+TEST(Se3, AdjointConjugatesAPerturbation) {
+  const Eigen::Isometry3d T = rigid_transform(37, {1, -2, 0.5}, {40, -25, 12});
+  Vector6d xi;
+  xi << 0.3, -0.2, 0.1, 0.5, 0.4, -0.7;
+  for (double h : {1e-3, 1e-4}) {
+    const Eigen::Isometry3d lhs = T * se3_exp(h * xi) * T.inverse();
+    const Eigen::Isometry3d rhs = se3_exp(h * (adjoint(T) * xi));
+    EXPECT_LT((lhs.matrix() - rhs.matrix()).norm(), 100 * h * h) << h;
+    EXPECT_GT((lhs.matrix() - Eigen::Isometry3d::Identity().matrix()).norm(), h * 0.1);
+  }
+}
+
+// Each kernel's weight is ρ'(d)/d (kernels.hpp): checked against a central difference of ρ, at
+// residuals on both sides of the scale and of both signs, and ρ is even, zero at 0 and rising.
+TEST(Kernels, WeightIsTheDerivativeOfRhoOverD) {
+  const double c = 0.7;
+  for (RobustKernel k : kAllKernels) {
+    SCOPED_TRACE(to_string(k));
+    EXPECT_EQ(kernel_rho(k, 0.0, c), 0.0);
+    EXPECT_EQ(kernel_weight(k, 0.0, c), 1.0);  // every kernel is least squares near 0
+    double previous = 0;
+    for (double d : {0.01, 0.1, 0.35, 0.69, 0.71, 1.0, 2.0, 5.0}) {
+      const double h = 1e-6;
+      const double derivative = (kernel_rho(k, d + h, c) - kernel_rho(k, d - h, c)) / (2 * h);
+      EXPECT_NEAR(kernel_weight(k, d, c), derivative / d, 1e-6);
+      EXPECT_EQ(kernel_weight(k, -d, c), kernel_weight(k, d, c));
+      EXPECT_EQ(kernel_rho(k, -d, c), kernel_rho(k, d, c));
+      EXPECT_GE(kernel_rho(k, d, c), previous);
+      previous = kernel_rho(k, d, c);
+    }
+  }
+}
+
+// Closed forms at chosen points, and scale <= 0 is plain least squares.
+TEST(Kernels, ClosedForms) {
+  EXPECT_DOUBLE_EQ(kernel_weight(RobustKernel::kGemanMcClure, 2.0, 2.0), 0.25);   // (1 + 1)^−2
+  EXPECT_DOUBLE_EQ(kernel_weight(RobustKernel::kGemanMcClure, -6.0, 2.0), 0.01);  // (1 + 9)^−2
+  EXPECT_DOUBLE_EQ(kernel_weight(RobustKernel::kHuber, 4.0, 2.0), 0.5);           // c / |d|
+  EXPECT_DOUBLE_EQ(kernel_weight(RobustKernel::kCauchy, 2.0, 2.0), 0.5);          // 1 / (1 + 1)
+  EXPECT_DOUBLE_EQ(kernel_weight(RobustKernel::kTukey, 1.0, 2.0), 0.5625);        // (1 − ¼)²
+  EXPECT_EQ(kernel_weight(RobustKernel::kTukey, 2.5, 2.0), 0.0);                  // beyond c: 0
+  EXPECT_DOUBLE_EQ(kernel_weight(RobustKernel::kWelsch, 2.0, 2.0), std::exp(-1.0));
+  EXPECT_DOUBLE_EQ(kernel_rho(RobustKernel::kTukey, 9.0, 3.0), 1.5);  // c²/6 beyond c
+  for (RobustKernel k : kAllKernels) {
+    EXPECT_EQ(kernel_weight(k, 123.0, 0.0), 1.0);
+    EXPECT_EQ(kernel_weight(k, 123.0, -1.0), 1.0);
+    EXPECT_EQ(kernel_from_string(to_string(k)), k);
+  }
+  EXPECT_EQ(kernel_from_string("gm"), std::nullopt);
 }
 
 }  // namespace

@@ -25,9 +25,9 @@ struct EvalScene {
 // The chapter scene and two partial views of objects of our own (~60 % overlap, 5 % outliers).
 std::vector<EvalScene> evaluation_scenes();
 
-// What runs from each starting pose: ICP alone (refine's defaults, init identity) with either
+// What runs from each starting pose: ICP alone (refine's defaults, init identity) with each
 // metric, the global stage (fpfh) then ICP, or align()'s default (init auto).
-enum class EvalMethod { kPointToPoint, kPointToPlane, kGlobal, kAuto };
+enum class EvalMethod { kPointToPoint, kPointToPlane, kGicp, kSymmetric, kGlobal, kAuto };
 const char* to_string(EvalMethod m);
 
 struct TrialResult {
@@ -35,8 +35,10 @@ struct TrialResult {
   double rotation_error_deg = 0, translation_error = 0, time_ms = 0;
 };
 
-// Moves the source by a rotation of `angle_deg` about `axis` and a translation `t`, registers it
-// back from the identity and scores it against the known truth. `threads` as everywhere.
+// Places the source on the target (the truth), turns it by `angle_deg` about `axis` through the
+// target's centroid and shifts it by `t` (so the identity is that far from the truth, Rusinkiewicz
+// 2019's protocol), registers it back from the identity and scores it against the truth.
+// `threads` as everywhere.
 TrialResult run_trial(const EvalScene& scene, EvalMethod method, double angle_deg,
                       const Eigen::Vector3d& axis, const Eigen::Vector3d& t, std::uint64_t seed,
                       int threads = 0);

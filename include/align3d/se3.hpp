@@ -35,6 +35,18 @@ inline Eigen::Isometry3d se3_exp(const Vector6d& twist) {
   return T;
 }
 
+// The adjoint of T = [R, t] for twists (ω, v) acting as x ↦ x + ω × x + v (se3_exp):
+// T·exp(ξ)·T⁻¹ = exp(Ad(T)·ξ), Ad(T) = [[R, 0], [[t]× R, R]]. Carries a covariance of a left
+// perturbation from one frame to another (Cov' = Ad Cov Adᵀ).
+inline Matrix6d adjoint(const Eigen::Isometry3d& T) {
+  const Eigen::Matrix3d R = T.linear();
+  Matrix6d A = Matrix6d::Zero();
+  A.topLeftCorner<3, 3>() = R;
+  A.bottomRightCorner<3, 3>() = R;
+  A.bottomLeftCorner<3, 3>() = skew(T.translation()) * R;
+  return A;
+}
+
 // The rigid transform that rotates by `angle_deg` about `axis` (through the origin), then
 // translates by `t`.
 inline Eigen::Isometry3d rigid_transform(double angle_deg, const Eigen::Vector3d& axis,

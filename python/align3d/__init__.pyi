@@ -78,6 +78,8 @@ class Result:
     @property
     def rms(self) -> float: ...
     @property
+    def covariance(self) -> npt.NDArray[np.float64]: ...
+    @property
     def fitness(self) -> float: ...
     @property
     def correspondences(self) -> int: ...
@@ -202,6 +204,9 @@ def inspect(
     *,
     tolerance: Union[float, Tuple[float, float]],
     init: Union[str, Matrix] = ...,
+    method: str = ...,
+    kernel: str = ...,
+    kernel_scale: float = ...,
     max_distance: float = ...,
     pass_fraction: float = ...,
     seed: int = ...,
@@ -223,6 +228,8 @@ def register(
     *,
     init: Union[str, Matrix] = ...,
     method: str = ...,
+    kernel: str = ...,
+    kernel_scale: float = ...,
     global_method: str = ...,
     ppf_model: Optional[PathLike] = ...,
     voxel: float = ...,

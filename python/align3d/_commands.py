@@ -105,10 +105,11 @@ def evaluate(
     threads: Optional[int] = None,
 ) -> Dict[str, Any]:
     """Measures registration from random starting poses (``align3d evaluate``): success rates of
-    ICP alone, global + ICP and the default ``init="auto"`` on the chapter scene and two object
-    views, and the convergence basin. Writes ``evaluation.md``, ``evaluation.json`` and
-    ``basin.svg``/``.png`` into ``outdir`` and returns ``evaluation.json`` as a dict
-    (``success``: one row per scene and method; ``basin``: one grid per method). The full run
+    ICP alone (each metric), global + ICP and the default ``init="auto"`` on the chapter scene
+    and two object views, and the convergence basins. Writes ``evaluation.md``,
+    ``evaluation.json`` and ``basin_<scene>.svg``/``.png`` into ``outdir`` and returns
+    ``evaluation.json`` as a dict (``success``: one row per scene and method; ``basin``: one grid
+    per scene and method, with its ``scene``). The full run
     takes minutes; ``quick=True`` (3 trials, a 2×2 basin) checks the machinery in seconds."""
     run("evaluate", [outdir],
         dict(trials=trials, cell_trials=cell_trials, seed=seed, threads=threads),

@@ -16,7 +16,7 @@ from ._cloud import PathLike, PointCloud
 from ._errors import DataError, NoSolutionError, SettingsError, StrictError
 from ._mesh import TriangleMesh, read_mesh
 from ._register import _Report, _int32, _is_path, _load, _naming_file, _pose, _real, _seed, \
-    _warn_all, _write_report
+    _text, _warn_all, _write_report
 from ._target import Target
 
 _DEFAULTS = _core.inspect_defaults()
@@ -141,6 +141,9 @@ def inspect(
     *,
     tolerance: Tolerance,
     init: Union[str, np.ndarray, PathLike] = _DEFAULTS["init"],
+    method: str = _DEFAULTS["method"],
+    kernel: str = _DEFAULTS["kernel"],
+    kernel_scale: float = _DEFAULTS["kernel_scale"],
     max_distance: float = _DEFAULTS["max_distance"],
     pass_fraction: float = _DEFAULTS["pass_fraction"],
     seed: int = _DEFAULTS["seed"],
@@ -165,6 +168,8 @@ def inspect(
     (STEP/IGES tessellated to ``chord_tolerance``). ``tolerance``: T for the band ±T, or
     ``(lower, upper)`` (lower <= 0 <= upper), in the data's units. Keywords are the command's
     flags: ``init`` (``"auto"``, ``"identity"``, ``"global"`` or a 4x4 pose, scan → CAD),
+    ``method``, ``kernel`` and ``kernel_scale`` (the ICP metric and robust kernel, as
+    :func:`register`),
     ``max_distance`` (points farther from every surface are outliers; 0: the larger of 5 × the
     band's larger half and 1 % of the CAD's diagonal), ``pass_fraction`` (the part passes when
     at least this share of the measured points is in the band), ``seed``, ``threads``;
@@ -199,7 +204,9 @@ def inspect(
             cloud._cloud, handle, lower=lower, upper=upper,
             max_distance=_real("max_distance", max_distance),
             pass_fraction=_real("pass_fraction", pass_fraction), init=policy,
-            initial_pose=initial_pose, seed=_seed(seed), threads=_int32("threads", threads),
+            initial_pose=initial_pose, method=_text("method", method),
+            kernel=_text("kernel", kernel), kernel_scale=_real("kernel_scale", kernel_scale),
+            seed=_seed(seed), threads=_int32("threads", threads),
             scan_path=scan_path, cad_path=cad_path, read_ms=read_ms, units=str(units), **files)
     except DataError as e:  # name the file, as the command line does
         named = _naming_file(e, {"source": (scan_path, "scan"), "target": (cad_path, "CAD")})

@@ -165,8 +165,15 @@ class Result(_Report):
     @property
     def rms(self) -> float:
         """RMS residual of the kept pairs at the final pose: distance (point-to-point) or distance
-        to the tangent plane (point-to-plane), data units."""
+        to the tangent plane (the other methods), data units."""
         return self._report["rms"]
+
+    @property
+    def covariance(self) -> np.ndarray:
+        """6x6 float64 covariance of ``transformation``: rotation (radians) then translation, for
+        T ← exp(ξ)·T about the target frame's origin (docs/report.md, ``covariance``). The
+        accuracy of a correct convergence only; a wrong minimum is flagged by the warnings."""
+        return np.array(self._report["covariance"], dtype=np.float64)
 
     @property
     def fitness(self) -> float:
@@ -329,6 +336,8 @@ def register(
     *,
     init: Union[str, np.ndarray, PathLike] = _REGISTER["init"],
     method: str = _REGISTER["method"],
+    kernel: str = _REGISTER["kernel"],
+    kernel_scale: float = _REGISTER["kernel_scale"],
     global_method: str = _REGISTER["global_method"],
     ppf_model: Optional[PathLike] = None,
     voxel: float = _REGISTER["voxel"],
@@ -368,7 +377,13 @@ def register(
       global stage runs too and the better supported answer is kept), ``"identity"``,
       ``"global"`` (global registration first: any starting pose), or the initial pose: a 4x4
       array or a transform file (ICP starts there).
-    - ``method``: the final ICP metric, ``"point-to-plane"`` or ``"point-to-point"``.
+    - ``method``: the final ICP metric, ``"point-to-plane"``, ``"point-to-point"``, ``"gicp"``
+      (plane-to-plane with per-point covariances, as small_gicp) or ``"symmetric"``
+      (Rusinkiewicz 2019; it also runs the coarse stages). gicp and symmetric need SOURCE's
+      normals: estimated when it has none.
+    - ``kernel``: the robust kernel weighing ICP's pairs, ``"auto"`` (the schedule's own),
+      ``"none"``, ``"huber"``, ``"cauchy"``, ``"geman-mcclure"``, ``"tukey"`` or ``"welsch"``;
+      ``kernel_scale``: its scale (data units; 0: from the noise).
     - ``global_method``: ``"fpfh"`` (descriptors + RANSAC) or ``"ppf"`` (point pair features);
       ``ppf_model``: a file saved by :func:`ppf_model` describing TARGET (implies ppf).
     - ``voxel``: voxel of the global stage (data units; 0: from the smaller cloud's extent).
@@ -401,6 +416,8 @@ def register(
     """
     settings = dict(
         method=_text("method", method),
+        kernel=_text("kernel", kernel),
+        kernel_scale=_real("kernel_scale", kernel_scale),
         global_method=_text("global_method", global_method),
         voxel=_real("voxel", voxel),
         seed=_seed(seed),

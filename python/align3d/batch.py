@@ -252,6 +252,8 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--group", type=int, default=1, help="pairs per Dask task (default 1)")
     p.add_argument("--init", default="auto", help="as align3d register (auto|identity|global)")
     p.add_argument("--method", default="point-to-plane", help="as align3d register")
+    p.add_argument("--kernel", default="auto", help="as align3d register")
+    p.add_argument("--kernel-scale", type=float, default=0.0, help="as align3d register")
     p.add_argument("--global", dest="global_method", default="fpfh", help="fpfh or ppf")
     p.add_argument("--voxel", type=float, default=0.0, help="as align3d register")
     p.add_argument("--seed", type=int, default=1, help="as align3d register")
@@ -290,7 +292,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             if os.path.exists(stale):
                 os.remove(stale)
 
-    settings = dict(init=args.init, method=args.method, global_method=args.global_method,
+    settings = dict(init=args.init, method=args.method, kernel=args.kernel,
+                    kernel_scale=args.kernel_scale, global_method=args.global_method,
                     voxel=args.voxel, seed=args.seed, max_iterations=args.max_iterations)
     start = time.monotonic()
     register_pairs([(s, t) for s, t, _ in todo], args.scheduler, workers=args.workers,

@@ -22,6 +22,8 @@ struct InspectArgs {
   double lower, upper, max_distance, pass_fraction;
   std::string init;
   py::object initial_pose;  // None, or a checked 4x4 array (init "pose")
+  std::string method, kernel;
+  double kernel_scale;
   std::uint64_t seed;
   int threads;
   std::string scan_path, cad_path;
@@ -71,6 +73,14 @@ py::tuple inspect_scan(const PointCloud& scan, const Cad& cad, const InspectArgs
     throw std::invalid_argument("init: expected 'auto', 'identity', 'global' or a pose, got '" +
                                 a.init + "'");
   }
+  const std::optional<IcpMethod> method = icp_method_from_string(a.method);
+  if (!method)
+    throw std::invalid_argument(
+        "method: expected 'point-to-plane', 'point-to-point', 'gicp' or "
+        "'symmetric', got '" +
+        a.method + "'");
+  s.align.refine.method = *method;
+  set_kernel(s.align.refine, a.kernel, a.kernel_scale);
   InspectResult r;
   nlohmann::json report;
   {
@@ -92,20 +102,23 @@ void def_inspect(py::module_& m) {
       "inspect",
       [](const PointCloud& scan, const Cad& cad, double lower, double upper, double max_distance,
          double pass_fraction, const std::string& init, const py::object& initial_pose,
+         const std::string& method, const std::string& kernel, double kernel_scale,
          std::uint64_t seed, int threads, const std::string& scan_path, const std::string& cad_path,
          double read_ms, const std::string& output, const std::string& csv,
          const std::string& histogram, const std::string& html, const std::string& figures,
          const std::string& units) {
-        InspectArgs a{lower, upper,   max_distance, pass_fraction, init,    initial_pose,
-                      seed,  threads, scan_path,    cad_path,      read_ms, {}};
+        InspectArgs a{lower,        upper,     max_distance, pass_fraction, init,
+                      initial_pose, method,    kernel,       kernel_scale,  seed,
+                      threads,      scan_path, cad_path,     read_ms,       {}};
         a.outputs = {output, csv, histogram, html, figures, scan_path, cad_path, units};
         return inspect_scan(scan, cad, a);
       },
       py::arg("scan"), py::arg("cad"), py::kw_only(), py::arg("lower"), py::arg("upper"),
       py::arg("max_distance"), py::arg("pass_fraction"), py::arg("init"), py::arg("initial_pose"),
-      py::arg("seed"), py::arg("threads"), py::arg("scan_path"), py::arg("cad_path"),
-      py::arg("read_ms"), py::arg("output"), py::arg("csv"), py::arg("histogram"), py::arg("html"),
-      py::arg("figures"), py::arg("units"));
+      py::arg("method"), py::arg("kernel"), py::arg("kernel_scale"), py::arg("seed"),
+      py::arg("threads"), py::arg("scan_path"), py::arg("cad_path"), py::arg("read_ms"),
+      py::arg("output"), py::arg("csv"), py::arg("histogram"), py::arg("html"), py::arg("figures"),
+      py::arg("units"));
 }
 
 }  // namespace
@@ -115,10 +128,12 @@ void bind_inspect(py::module_& m) {
   def_inspect<PreparedTarget>(m);
   const InspectSettings s;
   m.def("inspect_defaults", [s] {
-    return py::dict(py::arg("max_distance") = s.max_distance,
-                    py::arg("pass_fraction") = s.pass_fraction,
-                    py::arg("init") = to_string(s.align.init), py::arg("seed") = s.align.seed,
-                    py::arg("threads") = s.threads);
+    return py::dict(
+        py::arg("max_distance") = s.max_distance, py::arg("pass_fraction") = s.pass_fraction,
+        py::arg("init") = to_string(s.align.init),
+        py::arg("method") = to_string(s.align.refine.method), py::arg("kernel") = "auto",
+        py::arg("kernel_scale") = s.align.refine.kernel_scale, py::arg("seed") = s.align.seed,
+        py::arg("threads") = s.threads);
   });
 }
 

@@ -34,7 +34,8 @@ E parse_choice(const std::string& what, const std::string& text, const E (&choic
 
 constexpr InitPolicy kInitPolicies[] = {InitPolicy::kAuto, InitPolicy::kIdentity,
                                         InitPolicy::kGlobal, InitPolicy::kPose};
-constexpr IcpMethod kMethods[] = {IcpMethod::kPointToPlane, IcpMethod::kPointToPoint};
+constexpr IcpMethod kMethods[] = {IcpMethod::kPointToPlane, IcpMethod::kPointToPoint,
+                                  IcpMethod::kGicp, IcpMethod::kSymmetric};
 constexpr GlobalMethod kGlobalMethods[] = {GlobalMethod::kFpfh, GlobalMethod::kPpf};
 
 // A Python progress callback behind the library's (progress.hpp: called on the thread that called
@@ -89,6 +90,7 @@ report::InputInfo target_info(const PreparedTarget& t, const std::string& path) 
 template <class Target>
 std::string register_clouds(const PointCloud& source, const Target& target, const std::string& init,
                             const py::object& initial_pose, const std::string& method,
+                            const std::string& kernel, double kernel_scale,
                             const std::string& global_method,
                             const std::optional<std::filesystem::path>& ppf_model, double voxel,
                             std::uint64_t seed, bool mutual, const std::string& reject,
@@ -100,6 +102,7 @@ std::string register_clouds(const PointCloud& source, const Target& target, cons
   s.init = parse_choice("init", init, kInitPolicies);
   if (const auto T = pose(initial_pose, "init")) s.initial_pose = *T;
   s.refine.method = parse_choice("method", method, kMethods);
+  set_kernel(s.refine, kernel, kernel_scale);
   s.global.method = parse_choice("global_method", global_method, kGlobalMethods);
   try {
     s.refine.rejection = parse_rejection_rule(reject);
@@ -155,6 +158,7 @@ py::dict defaults() {
   return py::dict(
       py::arg("register") = py::dict(
           py::arg("init") = to_string(a.init), py::arg("method") = to_string(a.refine.method),
+          py::arg("kernel") = "auto", py::arg("kernel_scale") = a.refine.kernel_scale,
           py::arg("global_method") = to_string(a.global.method), py::arg("voxel") = a.global.voxel,
           py::arg("seed") = a.seed, py::arg("mutual") = a.global.mutual_filter,
           py::arg("reject") = to_string(a.refine.rejection),
@@ -192,11 +196,11 @@ void bind_target(py::module_& m) {
 template <class Target>
 void def_register(py::module_& m) {
   m.def("register", &register_clouds<Target>, py::arg("source"), py::arg("target"), py::kw_only(),
-        py::arg("init"), py::arg("initial_pose"), py::arg("method"), py::arg("global_method"),
-        py::arg("ppf_model"), py::arg("voxel"), py::arg("seed"), py::arg("mutual"),
-        py::arg("reject"), py::arg("max_iterations"), py::arg("tolerance"), py::arg("normal_k"),
-        py::arg("threads"), py::arg("ground_truth"), py::arg("source_path"), py::arg("target_path"),
-        py::arg("read_ms"), py::arg("progress"));
+        py::arg("init"), py::arg("initial_pose"), py::arg("method"), py::arg("kernel"),
+        py::arg("kernel_scale"), py::arg("global_method"), py::arg("ppf_model"), py::arg("voxel"),
+        py::arg("seed"), py::arg("mutual"), py::arg("reject"), py::arg("max_iterations"),
+        py::arg("tolerance"), py::arg("normal_k"), py::arg("threads"), py::arg("ground_truth"),
+        py::arg("source_path"), py::arg("target_path"), py::arg("read_ms"), py::arg("progress"));
 }
 
 }  // namespace

@@ -85,10 +85,12 @@ def test_a_ppf_model_registers_scans_onto_its_target(chapter, tmp_path):
 def test_evaluate_quick(tmp_path):
     report = align3d.evaluate(tmp_path / "eval", quick=True, threads=2)
     assert report["trials"] == 3
-    assert len({row["method"] for row in report["success"]}) == 4  # ICP twice, global, auto
+    assert len({row["method"] for row in report["success"]}) == 6  # ICP ×4, global, auto
     assert len({row["scene"] for row in report["success"]}) == 3
     assert all(0 <= row["successes"] <= row["trials"] == 3 for row in report["success"])
-    assert (tmp_path / "eval" / "basin.png").is_file()
+    assert len(report["basin"]) == 18  # 3 scenes × 6 methods
+    for scene in ("chapter", "bracket", "bumpy-sphere"):
+        assert (tmp_path / "eval" / f"basin_{scene}.png").is_file()
 
 
 def test_demo_reproduces_the_chapter(tmp_path):

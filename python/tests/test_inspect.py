@@ -107,6 +107,23 @@ def test_the_report_is_the_command_lines(part, cli, tmp_path):
     assert ours == theirs
 
 
+def test_the_icp_method_and_kernel_reach_the_report_as_on_the_command_line(part, cli):
+    directory, _ = part
+    scan, cad = directory / "scan.ply", directory / "part.stl"
+    ours = align3d.inspect(scan, cad, tolerance=(-0.1, 0.4), method="symmetric",
+                           kernel="tukey").to_dict()
+    out = subprocess.run([str(cli), "inspect", str(scan), str(cad), "--tolerance", "-0.1,0.4",
+                          "--method", "symmetric", "--kernel", "tukey", "--report", "-",
+                          "--quiet"], capture_output=True, text=True)
+    theirs = json.loads(out.stdout)
+    for report in (ours, theirs):
+        report.pop("timing_ms")
+    assert ours == theirs
+    assert ours["method"] == "symmetric" and ours["kernel"] == "tukey"
+    with pytest.raises(align3d.SettingsError, match="method: expected"):
+        align3d.inspect(scan, cad, tolerance=0.1, method="plane")
+
+
 def test_a_prepared_mesh_and_the_files_give_the_same_result(part, tmp_path):
     directory, _ = part
     scan, cad = directory / "scan.ply", directory / "part.stl"

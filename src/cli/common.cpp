@@ -152,6 +152,40 @@ void add_strict(CLI::App* sub, bool& strict) {
                 "Exit with code 7 when the result comes with warnings (outputs are written)");
 }
 
+void add_refine_options(CLI::App* sub, RefineOptions& o) {
+  std::vector<std::string> methods, kernels{"auto"};
+  for (IcpMethod m : kAllIcpMethods) methods.push_back(to_string(m));
+  for (RobustKernel k : kAllKernels) kernels.push_back(to_string(k));
+  sub->add_option("--method", o.method,
+                  "Final ICP metric: point-to-point, point-to-plane, gicp (plane-to-plane with "
+                  "per-point covariances, as small_gicp) or symmetric (Rusinkiewicz 2019; gicp "
+                  "and symmetric also run the coarse stages and need source normals, estimated "
+                  "when the file has none)")
+      ->check(CLI::IsMember(methods))
+      ->capture_default_str();
+  sub->add_option("--kernel", o.kernel,
+                  "Robust kernel weighing ICP's pairs: none, huber, cauchy, geman-mcclure, tukey, "
+                  "welsch; auto: the coarse-to-fine schedule's own (Geman-McClure at half the "
+                  "stage's reach; none with a fixed --reject rule)")
+      ->check(CLI::IsMember(kernels))
+      ->capture_default_str();
+  sub->add_option("--kernel-scale", o.kernel_scale,
+                  "Scale of --kernel (data units); 0: from the noise (the kernel's 95 %-efficiency "
+                  "constant × the residuals' σ: 1.345 huber, 2.385 cauchy, 2 geman-mcclure, 4.685 "
+                  "tukey, 2.985 welsch)")
+      ->check(finite_non_negative())
+      ->capture_default_str();
+}
+
+void apply_refine_options(const RefineOptions& o, RefineSettings& s) {
+  s.method = icp_method_from_string(o.method).value_or(s.method);
+  try {
+    set_kernel(s, o.kernel, o.kernel_scale);
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(std::string("--kernel, --kernel-scale: ") + e.what());
+  }
+}
+
 void add_seed(CLI::App* sub, std::uint64_t& seed) {
   sub->add_option("--seed", seed, "Seed of the global stage (same seed, same pose)")
       ->check(CLI::NonNegativeNumber)  // CLI11 would wrap -1 to 2^64 - 1

@@ -19,6 +19,7 @@ struct InspectOptions {
   std::string init = to_string(AlignSettings{}.init);
   std::string report, output, html, figures, csv, histogram, units;
   io::MeshReadSettings mesh;
+  RefineOptions refine;
   bool strict = false, quiet = false;
   InspectSettings settings;
 };
@@ -115,6 +116,7 @@ int run_inspect(InspectOptions& o, Streams io) {
   InspectSettings s = o.settings;
   s.tolerance = parse_tolerance(o.tolerance);
   apply_init(o.init, s.align);
+  apply_refine_options(o.refine, s.align.refine);
   const auto start_read = std::chrono::steady_clock::now();
   const PointCloud scan = load_cloud(o.scan, io.err);
   io::MeshReadInfo mesh_info;
@@ -178,6 +180,7 @@ Command add_inspect(CLI::App& app, Streams io) {
                   "The band: T for ±T, or LOWER,UPPER (e.g. -0.05,+0.2), in data units")
       ->required();
   add_init(sub, o->init, "a file with a 4x4 matrix (scan → CAD; ICP starts there)");
+  add_refine_options(sub, o->refine);
   sub->add_option("--max-distance", s.max_distance,
                   "Points farther than this from every surface are outliers (data units); 0: the "
                   "larger of 5 x the band's larger half and 1 % of the CAD model's diagonal")

@@ -20,7 +20,7 @@ namespace {
 // the library's settings structs (declared once there).
 struct RegisterOptions {
   std::string source, target;
-  std::string method = to_string(AlignSettings{}.refine.method);
+  RefineOptions refine;
   std::string init = to_string(AlignSettings{}.init);
   std::string global = to_string(AlignSettings{}.global.method);
   std::string reject = to_string(AlignSettings{}.refine.rejection);
@@ -32,8 +32,7 @@ struct RegisterOptions {
 // The settings from the options; reads --init FILE and --ppf-model FILE.
 AlignSettings settings_from(RegisterOptions& o, std::optional<PpfModel>& model) {
   AlignSettings s = o.settings;
-  s.refine.method =
-      o.method == "point-to-point" ? IcpMethod::kPointToPoint : IcpMethod::kPointToPlane;
+  apply_refine_options(o.refine, s.refine);
   try {
     s.refine.rejection = parse_rejection_rule(o.reject);
   } catch (const std::invalid_argument& e) {
@@ -157,9 +156,7 @@ Command add_register(CLI::App& app, Streams io) {
                   "Target: a cloud, the fixed reference, or a mesh (.stl .obj .off .step .iges, a "
                   ".ply with faces: a CAD model, registered onto its exact surface)")
       ->required();
-  sub->add_option("--method", o->method, "Final ICP metric")
-      ->check(CLI::IsMember({"point-to-point", "point-to-plane"}))
-      ->capture_default_str();
+  add_refine_options(sub, o->refine);
   add_init(sub, o->init, "a file with a 4x4 matrix (4 rows of 4 numbers; ICP starts there)");
   sub->add_option("--global", o->global,
                   "Global method: fpfh (descriptors + RANSAC) or ppf (point pair features, "

@@ -65,11 +65,18 @@ IcpResult run_icp(const PointCloud& source, const Target& target, const Eigen::I
 
   // The source in spatial order (spatial_order, kdtree.hpp): consecutive queries and their target
   // partners are close in space, so the search and the sums stay in cache on large clouds.
-  std::vector<Eigen::Vector3d> moving(source.size());
+  std::vector<Eigen::Vector3d> moving(source.size()), moving_normals;
   {
     const std::vector<std::uint32_t> order = spatial_order(source.positions);
     for (std::size_t k = 0; k < moving.size(); ++k) moving[k] = source.positions[order[k]];
+    if (needs_source_normals(s.method)) {
+      moving_normals.resize(source.size());
+      for (std::size_t k = 0; k < moving.size(); ++k) moving_normals[k] = source.normals[order[k]];
+    }
   }
+  const StepCost cost{s.method, s.kernel, s.kernel_scale};
+  static const PointCloud kNoCloud;
+  const PointCloud& target_cloud = target.cloud ? *target.cloud : kNoCloud;
 
   // Each pass evaluates the pose reached so far and, unless a criterion stops the loop there,
   // applies the update it solved for. The pose returned is the last one evaluated, so its RMS,
@@ -77,6 +84,8 @@ IcpResult run_icp(const PointCloud& source, const Target& target, const Eigen::I
   IcpResult result;
   result.T_target_source = init;
   Correspondences c;
+  double threshold = 0;
+  IcpStep last_step;
   double previous_rms = std::numeric_limits<double>::quiet_NaN();
   for (;;) {
     if (target.surface)
@@ -85,13 +94,13 @@ IcpResult run_icp(const PointCloud& source, const Target& target, const Eigen::I
     else
       find_correspondences(moving, *target.cloud, *target.tree, result.T_target_source,
                            s.rejection.search_bound(), s.threads, c);
-    const double threshold = rejection_threshold(s.rejection, c);
-    if (cache && s.method == IcpMethod::kPointToPlane)
+    threshold = rejection_threshold(s.rejection, c);
+    if (cache && s.method != IcpMethod::kPointToPoint)
       cache->require(missing_normals(c, threshold, *cache, s.threads));
-    static const PointCloud kNoCloud;
-    IcpStep step =
-        solve_step(moving, target.cloud ? *target.cloud : kNoCloud, normals, c,
-                   result.T_target_source, centre, threshold, s.method, s.robust_scale, s.threads);
+    IcpStep step = solve_step({moving, moving_normals, target_cloud, normals, c,
+                               result.T_target_source, centre, threshold},
+                              cost, s.threads);
+    last_step = step;
     result.history.push_back({step.rms, step.kept, threshold});
     result.rms = step.rms;
     result.correspondences = step.kept;
@@ -113,6 +122,11 @@ IcpResult run_icp(const PointCloud& source, const Target& target, const Eigen::I
     ++result.iterations;
     previous_rms = step.rms;
   }
+  if (s.covariance)
+    result.covariance = pose_covariance({moving, moving_normals, target_cloud, normals, c,
+                                         result.T_target_source, centre, threshold},
+                                        {s.method, s.kernel, last_step.kernel_scale}, last_step,
+                                        diagonal, s.threads);
   result.fitness = source.empty() ? 0.0
                                   : static_cast<double>(result.correspondences) /
                                         static_cast<double>(source.size());
@@ -120,14 +134,22 @@ IcpResult run_icp(const PointCloud& source, const Target& target, const Eigen::I
   return result;
 }
 
+void check_run(const PointCloud& source, const IcpSettings& s) {
+  if (s.rejection.kind == RejectionRule::Kind::kAuto)
+    throw std::invalid_argument("icp: rejection 'auto' is refine()'s schedule, not one ICP run");
+  if (needs_source_normals(s.method) && !source.has_normals())
+    throw std::invalid_argument(std::string("icp: ") + to_string(s.method) +
+                                " needs source normals");
+}
+
 }  // namespace
 
 IcpResult icp(const PointCloud& source, const PointCloud& target, const KdTree& tree,
               const Eigen::Isometry3d& init, const IcpSettings& s) {
-  if (s.rejection.kind == RejectionRule::Kind::kAuto)
-    throw std::invalid_argument("icp: rejection 'auto' is refine()'s schedule, not one ICP run");
-  if (s.method == IcpMethod::kPointToPlane && !target.has_normals())
-    throw std::invalid_argument("icp: point-to-plane needs target normals");
+  check_run(source, s);
+  if (s.method != IcpMethod::kPointToPoint && !target.has_normals())
+    throw std::invalid_argument(std::string("icp: ") + to_string(s.method) +
+                                " needs target normals");
   if (tree.size() != target.size())
     throw std::invalid_argument("icp: the kd-tree does not index the target");
   return run_icp(source, {&target, &tree, nullptr, nullptr}, init, s);
@@ -135,15 +157,13 @@ IcpResult icp(const PointCloud& source, const PointCloud& target, const KdTree& 
 
 IcpResult icp(const PointCloud& source, NormalCache& target, const Eigen::Isometry3d& init,
               const IcpSettings& s) {
-  if (s.rejection.kind == RejectionRule::Kind::kAuto)
-    throw std::invalid_argument("icp: rejection 'auto' is refine()'s schedule, not one ICP run");
+  check_run(source, s);
   return run_icp(source, {&target.cloud(), &target.tree(), &target, nullptr}, init, s);
 }
 
 IcpResult icp(const PointCloud& source, const MeshIndex& target, const Eigen::Isometry3d& init,
               const IcpSettings& s) {
-  if (s.rejection.kind == RejectionRule::Kind::kAuto)
-    throw std::invalid_argument("icp: rejection 'auto' is refine()'s schedule, not one ICP run");
+  check_run(source, s);
   return run_icp(source, {nullptr, nullptr, nullptr, &target}, init, s);
 }
 

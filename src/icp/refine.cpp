@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
+#include <string>
 
 #include "align3d/cloud_stats.hpp"
 #include "align3d/error.hpp"
@@ -52,15 +54,15 @@ PointCloud reordered(const PointCloud& cloud, const std::vector<std::uint32_t>& 
   return out;
 }
 
-// At most kCoarsePoints of `source`, evenly along the Morton curve; empty when it is small enough.
+// At most kCoarsePoints of `source` (with their normals), evenly along the Morton curve; empty when
+// it is small enough.
 PointCloud thinned(const PointCloud& source) {
-  PointCloud out;
-  if (source.size() <= kCoarsePoints) return out;
+  if (source.size() <= kCoarsePoints) return {};
   const std::vector<std::uint32_t> order = spatial_order(source.positions);
   const std::size_t step = (source.size() + kCoarsePoints - 1) / kCoarsePoints;
-  for (std::size_t k = 0; k < order.size(); k += step)
-    out.positions.push_back(source.positions[order[k]]);
-  return out;
+  std::vector<std::uint32_t> kept;
+  for (std::size_t k = 0; k < order.size(); k += step) kept.push_back(order[k]);
+  return reordered(source, kept);
 }
 
 // The noise of `source` about a surface at pose T: 1.4826 × the median distance of the points
@@ -95,7 +97,7 @@ double noise_stages(const PointCloud& source, const MeshIndex& surface, double t
     if (next > (1 - kNoiseShrink) * tau) break;
     tau = next;
     stage.rejection = RejectionRule::max_distance(tau);
-    stage.robust_scale = kKernelFraction * tau;
+    stage.kernel_scale = kKernelFraction * tau;
     const IcpResult r = run(source, T, stage);
     if (r.stop_reason == StopReason::kTooFewCorrespondences) break;
     T = r.T_target_source;
@@ -162,18 +164,88 @@ double RefineTarget::spacing() {
   return spacing_;
 }
 
-RefineResult refine(const PointCloud& source, RefineTarget& target, const Eigen::Isometry3d& init,
-                    const RefineSettings& settings) {
-  check_registrable(source, "source");
+namespace {
+
+// The `auto` schedule (refine.hpp): coarse stages at a shrinking τ, then the final stage with
+// `last` (method, termination, threads, and the kernel when one was asked for).
+template <class Run>
+RefineResult& refine_schedule(const PointCloud& source, RefineTarget& target,
+                              const Eigen::Isometry3d& init, const RefineSettings& settings,
+                              IcpSettings last, RefineResult& out, Run&& run) {
+  // L: the extent of the object, the smaller of the two clouds (cloud_stats.hpp), so that a part
+  // registered into a wide scene is not pulled by clutter within an eighth of the scene's size. A
+  // cloud of duplicated points has no measurable spacing; fall back to a fine fraction of L.
+  const double diagonal = std::min(target.extent(), robust_extent(source));
+  double spacing = target.spacing();
+  if (!(spacing > 0)) spacing = 1e-4 * diagonal;
+  out.point_spacing = spacing;
+  const double floor = kFinalSpacings * spacing;
+  const PointCloud thin = thinned(source);
+  const PointCloud& coarse_source = thin.empty() ? source : thin;
+
+  Eigen::Isometry3d T = init;
+  IcpSettings coarse = last;
+  coarse.covariance = false;
+  coarse.method =
+      settings.method == IcpMethod::kSymmetric ? IcpMethod::kSymmetric : IcpMethod::kPointToPlane;
+  coarse.termination = {kCoarseIterations, 1e-4, true, 1e-5, 1e-6};
+  coarse.kernel = RobustKernel::kGemanMcClure;
+  double sigma = 0;
+  double tau = kStartFraction * diagonal;
+  for (int stage = 0; stage < kMaxStages && tau > floor; ++stage, tau *= kShrink) {
+    coarse.rejection = RejectionRule::max_distance(tau);
+    coarse.kernel_scale = kKernelFraction * tau;
+    const IcpResult r = run(coarse_source, T, coarse);
+    if (r.stop_reason == StopReason::kTooFewCorrespondences) break;
+    T = r.T_target_source;
+    sigma = r.rms;  // the plane distance's RMS: the noise along the normal once settled
+  }
+  tau = std::max(floor, kFinalSigmas * sigma);
+  if (target.surface()) tau = noise_stages(coarse_source, *target.surface(), tau, coarse, T, run);
+  last.rejection = RejectionRule::max_distance(tau);
+  if (!settings.kernel) {
+    last.kernel = RobustKernel::kGemanMcClure;
+    last.kernel_scale = kKernelFraction * tau;
+  } else if (!(settings.kernel_scale > 0)) {
+    last.kernel_scale = kernel_tuning(last.kernel) * sigma;
+  }
+  out.icp = run(source, T, last);
+  return out;
+}
+
+// `source`, or a copy with normals when the method needs them and it has none.
+const PointCloud& with_normals(const PointCloud& source, const RefineSettings& settings,
+                               PointCloud& copy) {
+  if (!needs_source_normals(settings.method) || source.has_normals()) return source;
+  if (source.size() < static_cast<std::size_t>(settings.normals.k))
+    throw DataError(
+        "source",
+        std::to_string(source.size()) + " points; " + to_string(settings.method) +
+            " needs at least the normal neighbourhood k = " + std::to_string(settings.normals.k));
+  copy = source;
+  NormalSettings ns = settings.normals;
+  ns.threads = settings.threads;
+  estimate_normals(copy, ns);
+  return copy;
+}
+
+}  // namespace
+
+RefineResult refine(const PointCloud& given_source, RefineTarget& target,
+                    const Eigen::Isometry3d& init, const RefineSettings& settings) {
+  check_registrable(given_source, "source");
   RefineResult out;
   const bool automatic = settings.rejection.kind == RejectionRule::Kind::kAuto;
   NormalCache* normals = target.cache();
-  if ((settings.method == IcpMethod::kPointToPlane || automatic) && normals &&
+  if ((settings.method != IcpMethod::kPointToPoint || automatic) && normals &&
       target.cloud().size() < static_cast<std::size_t>(target.normal_k()))
-    throw DataError("target", std::to_string(target.cloud().size()) +
-                                  " points; point-to-plane needs at least the normal "
-                                  "neighbourhood k = " +
-                                  std::to_string(target.normal_k()));
+    throw DataError(
+        "target",
+        std::to_string(target.cloud().size()) + " points; " +
+            (automatic ? std::string("refinement") : std::string(to_string(settings.method))) +
+            " needs at least the normal neighbourhood k = " + std::to_string(target.normal_k()));
+  PointCloud copy;
+  const PointCloud& source = with_normals(given_source, settings, copy);
   auto run = [&](const PointCloud& from, const Eigen::Isometry3d& T, const IcpSettings& s) {
     IcpResult r = target.surface() ? icp(from, *target.surface(), T, s)
                   : normals        ? icp(from, *normals, T, s)
@@ -190,43 +262,40 @@ RefineResult refine(const PointCloud& source, RefineTarget& target, const Eigen:
   last.method = settings.method;
   last.threads = settings.threads;
   last.termination = settings.termination;
+  last.covariance = true;
+  if (settings.kernel) {
+    last.kernel = *settings.kernel;
+    last.kernel_scale = settings.kernel_scale;
+  }
   if (!automatic) {
     last.rejection = settings.rejection;
     out.icp = run(source, init, last);
     return out;
   }
-
-  // L: the extent of the object, the smaller of the two clouds (cloud_stats.hpp), so that a part
-  // registered into a wide scene is not pulled by clutter within an eighth of the scene's size. A
-  // cloud of duplicated points has no measurable spacing; fall back to a fine fraction of L.
-  const double diagonal = std::min(target.extent(), robust_extent(source));
-  double spacing = target.spacing();
-  if (!(spacing > 0)) spacing = 1e-4 * diagonal;
-  out.point_spacing = spacing;
-  const double floor = kFinalSpacings * spacing;
-  const PointCloud thin = thinned(source);
-  const PointCloud& coarse_source = thin.empty() ? source : thin;
-
-  Eigen::Isometry3d T = init;
-  IcpSettings coarse = last;
-  coarse.method = IcpMethod::kPointToPlane;
-  coarse.termination = {kCoarseIterations, 1e-4, true, 1e-5, 1e-6};
-  double sigma = 0;
-  double tau = kStartFraction * diagonal;
-  for (int stage = 0; stage < kMaxStages && tau > floor; ++stage, tau *= kShrink) {
-    coarse.rejection = RejectionRule::max_distance(tau);
-    coarse.robust_scale = kKernelFraction * tau;
-    const IcpResult r = run(coarse_source, T, coarse);
-    if (r.stop_reason == StopReason::kTooFewCorrespondences) break;
-    T = r.T_target_source;
-    sigma = r.rms;  // point-to-plane RMS: the noise along the normal once settled
-  }
-  tau = std::max(floor, kFinalSigmas * sigma);
-  if (target.surface()) tau = noise_stages(coarse_source, *target.surface(), tau, coarse, T, run);
-  last.rejection = RejectionRule::max_distance(tau);
-  last.robust_scale = kKernelFraction * tau;
-  out.icp = run(source, T, last);
+  refine_schedule(source, target, init, settings, last, out, run);
   return out;
+}
+
+void set_kernel(RefineSettings& settings, std::string_view name, double scale) {
+  if (!std::isfinite(scale) || scale < 0)
+    throw std::invalid_argument("kernel scale: expected a finite number >= 0");
+  if (name == "auto") {
+    if (scale > 0)
+      throw std::invalid_argument(
+          "kernel scale: needs a kernel (the auto schedule sets its own scale)");
+    settings.kernel.reset();
+    settings.kernel_scale = 0;
+    return;
+  }
+  const std::optional<RobustKernel> k = kernel_from_string(name);
+  if (!k) {
+    std::string names = "'auto'";
+    for (RobustKernel each : kAllKernels) names += std::string(", '") + to_string(each) + "'";
+    throw std::invalid_argument("kernel: expected one of " + names + ", got '" + std::string(name) +
+                                "'");
+  }
+  settings.kernel = k;
+  settings.kernel_scale = scale;
 }
 
 RefineResult refine(const PointCloud& source, const PointCloud& target,

@@ -1,17 +1,35 @@
 #include "align3d/icp/solver.hpp"
 
+#include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 
-#include "align3d/icp/kernels.hpp"
 #include "align3d/kabsch.hpp"
 #include "detail/parallel.hpp"
 
 namespace align3d {
 namespace {
 
-// Sums over the kept pairs (distance <= threshold), in coordinates about `centre`: `add(sums, p, q,
-// n, distance)` folds one pair into the metric's sums and returns its squared residual; n is the
-// partner's normal (null when `normals` is empty and the target is not a surface).
+// One kept pair in coordinates about the centre: the moved source point p, its partner q, the
+// partner's unit normal n (zero when there is none), the source normal m turned by T (zero when
+// the source has none; for the symmetric cost flipped to face n's side), and their distance.
+struct Pair {
+  Eigen::Vector3d p, q, n, m;
+  double distance;
+  std::uint64_t partner;  // the target point (a mesh target: the source point; no two share)
+};
+
+// GICP and symmetric pair two surfaces by their normals: a pair whose normals differ by more than
+// 60° (kCompatibleCosine) joins different surfaces (a side face to the floor at a coarse stage)
+// and is left out of the sums (Godin, Rioux and Baribeau 1994's compatibility test). Without it,
+// on the chapter's scene (a conveyor plane under the part) both drifted off the truth at the
+// coarse stages (symmetric 64° from the true pose at τ = L/8).
+constexpr double kCompatibleCosine = 0.2;
+bool compatible(IcpMethod method, const Pair& pair) {
+  return !needs_source_normals(method) || pair.m.dot(pair.n) >= kCompatibleCosine;
+}
+
 template <class Sums>
 struct PairTotals {
   Sums sums;
@@ -19,21 +37,31 @@ struct PairTotals {
   std::size_t kept = 0;
 };
 
+// Folds every kept pair (within the threshold, and compatible for `method`) into Sums:
+// `add(sums, pair)` returns the pair's squared residual.
 template <class Sums, class Add>
-PairTotals<Sums> reduce_pairs(const std::vector<Eigen::Vector3d>& source, const PointCloud& target,
-                              const std::vector<Eigen::Vector3d>& normals, const Correspondences& c,
-                              const Eigen::Isometry3d& T, const Eigen::Vector3d& centre,
-                              double threshold, int threads, Add add) {
+PairTotals<Sums> reduce_pairs(const StepInput& in, IcpMethod method, int threads, Add add) {
+  const Correspondences& c = in.pairs;
   const bool surface = !c.point.empty();  // a mesh target: the partners themselves are given
+  const Eigen::Matrix3d R = in.T.linear();
   return parallel_reduce(
-      source.size(), threads, PairTotals<Sums>{},
+      in.source.size(), threads, PairTotals<Sums>{},
       [&](PairTotals<Sums>& a, std::size_t i) {
-        if (c.target[i] == kNoPartner || c.distance[i] > threshold) return;
+        if (c.target[i] == kNoPartner || c.distance[i] > in.threshold) return;
         const std::size_t j = c.target[i];
-        const Eigen::Vector3d p = T * source[i] - centre;
-        const Eigen::Vector3d q = (surface ? c.point[i] : target.positions[j]) - centre;
-        const Eigen::Vector3d* n = surface ? &c.normal[i] : normals.empty() ? nullptr : &normals[j];
-        a.sq_error += add(a.sums, p, q, n, c.distance[i]);
+        Pair pair;
+        pair.p = in.T * in.source[i] - in.centre;
+        pair.q = (surface ? c.point[i] : in.target.positions[j]) - in.centre;
+        pair.n = surface              ? c.normal[i]
+                 : in.normals.empty() ? Eigen::Vector3d::Zero()
+                                      : in.normals[j];
+        pair.m = in.source_normals.empty() ? Eigen::Vector3d::Zero()
+                                           : Eigen::Vector3d(R * in.source_normals[i]);
+        if (pair.m.dot(pair.n) < 0) pair.m = -pair.m;
+        pair.distance = c.distance[i];
+        pair.partner = surface ? i : j;
+        if (!compatible(method, pair)) return;
+        a.sq_error += add(a.sums, pair);
         ++a.kept;
       },
       [](PairTotals<Sums>& a, const PairTotals<Sums>& b) {
@@ -41,6 +69,49 @@ PairTotals<Sums> reduce_pairs(const std::vector<Eigen::Vector3d>& source, const 
         a.sq_error += b.sq_error;
         a.kept += b.kept;
       });
+}
+
+// The pair's distance from the partner's tangent plane.
+double plane_distance(const Pair& pair) { return (pair.p - pair.q).dot(pair.n); }
+
+// The residual the kernel weighs (solver.hpp, StepCost).
+double kernel_residual(IcpMethod method, const Pair& pair) {
+  return method == IcpMethod::kPointToPoint ? pair.distance : std::abs(plane_distance(pair));
+}
+
+// The symmetric cost's normal n_p + n_q (SymmetricFactor).
+Eigen::Vector3d symmetric_normal(const Pair& pair) { return pair.m + pair.n; }
+
+// A scalar cost's residual and Jacobian (point-to-plane, symmetric).
+void scalar_factor(IcpMethod method, const Pair& pair, double& r, Vector6d& J) {
+  if (method == IcpMethod::kSymmetric) {
+    const Eigen::Vector3d n = symmetric_normal(pair);
+    r = SymmetricFactor::residual(pair.p, pair.q, n);
+    J = SymmetricFactor::jacobian(pair.p, pair.q, n);
+  } else {
+    r = PointToPlaneFactor::residual(pair.p, pair.q, pair.n);
+    J = PointToPlaneFactor::jacobian(pair.p, pair.n);
+  }
+}
+
+// kernel_tuning × 1.4826 × the median kernel residual of the kept pairs (0 when none is kept).
+double noise_scale(const StepInput& in, const StepCost& cost, int threads) {
+  struct Residuals {
+    std::vector<double> r;
+    Residuals& operator+=(const Residuals& o) {
+      r.insert(r.end(), o.r.begin(), o.r.end());
+      return *this;
+    }
+  };
+  auto totals =
+      reduce_pairs<Residuals>(in, cost.method, threads, [&](Residuals& s, const Pair& pair) {
+        s.r.push_back(kernel_residual(cost.method, pair));
+        return 0.0;
+      });
+  std::vector<double>& r = totals.sums.r;
+  if (r.empty()) return 0;
+  std::nth_element(r.begin(), r.begin() + static_cast<std::ptrdiff_t>(r.size() / 2), r.end());
+  return kernel_tuning(cost.kernel) * 1.4826 * r[r.size() / 2];
 }
 
 // Per candidate direction of the system, the part of its eigenvalue held by pairs aligned with it
@@ -53,73 +124,181 @@ struct AlignedSupport {
   }
 };
 
+// Σ w (J_s·v_i)² over the pairs aligned with candidate direction i (for GICP, of each pair's
+// plane row).
+Vector6d aligned_support(const StepInput& in, const StepCost& cost, const SystemAnalysis& a,
+                         int threads) {
+  const auto support = reduce_pairs<AlignedSupport>(
+      in, cost.method, threads, [&](AlignedSupport& sums, const Pair& pair) {
+        double r;
+        Vector6d J;
+        if (cost.method == IcpMethod::kGicp) {
+          // GICP's strongest row: the plane constraint along n, weighed by nᵀ M n.
+          scalar_factor(IcpMethod::kPointToPlane, pair, r, J);
+          J *= std::sqrt(pair.n.dot(GicpFactor::weight(pair.m, pair.n) * pair.n));
+        } else {
+          scalar_factor(cost.method, pair, r, J);
+        }
+        J = a.scale.cwiseProduct(J);
+        const double w =
+            kernel_weight(cost.kernel, kernel_residual(cost.method, pair), cost.kernel_scale);
+        for (int i = 0; i < 6 && a.candidate(i); ++i) {
+          const double d = J.dot(a.vectors.col(i));
+          if (d * d >= kAlignedCosine * kAlignedCosine * J.squaredNorm()) sums.sum(i) += w * d * d;
+        }
+        return 0.0;
+      });
+  return support.sums.sum;
+}
+
+// The Gauss-Newton system of the point-to-plane, symmetric or GICP cost.
+PairTotals<LinearSystem6> normal_equations(const StepInput& in, const StepCost& cost, int threads) {
+  return reduce_pairs<LinearSystem6>(
+      in, cost.method, threads, [&](LinearSystem6& sums, const Pair& pair) {
+        const double w =
+            kernel_weight(cost.kernel, kernel_residual(cost.method, pair), cost.kernel_scale);
+        if (cost.method == IcpMethod::kGicp) {
+          const Eigen::Vector3d e = pair.p - pair.q;
+          const Eigen::Matrix3d M = GicpFactor::weight(pair.m, pair.n);
+          sums.add(GicpFactor::jacobian(pair.p), e, M, w);
+          return plane_distance(pair) * plane_distance(pair);
+        }
+        double r;
+        Vector6d J;
+        scalar_factor(cost.method, pair, r, J);
+        sums.add(J, r, w);
+        if (cost.method == IcpMethod::kPointToPlane) return r * r;
+        const double n = symmetric_normal(pair).norm();  // r along the mean normal, in data units
+        return n > 0 ? r * r / (n * n) : 0.0;
+      });
+}
+
 }  // namespace
 
-IcpStep solve_step(const std::vector<Eigen::Vector3d>& source, const PointCloud& target,
-                   const std::vector<Eigen::Vector3d>& normals, const Correspondences& c,
-                   const Eigen::Isometry3d& T, const Eigen::Vector3d& centre, double threshold,
-                   IcpMethod method, double robust_scale, int threads) {
+IcpStep solve_step(const StepInput& in, const StepCost& given, int threads) {
   IcpStep step;
-  auto weight = [&](double d) { return geman_mcclure_weight(d, robust_scale); };
+  StepCost cost = given;
+  if (cost.kernel != RobustKernel::kNone && !(cost.kernel_scale > 0))
+    cost.kernel_scale = noise_scale(in, cost, threads);
+  step.kernel_scale = cost.kernel == RobustKernel::kNone ? 0.0 : cost.kernel_scale;
   auto finish = [&](const auto& totals, std::size_t min_pairs) {
     step.kept = totals.kept;
     step.rms = totals.kept ? std::sqrt(totals.sq_error / static_cast<double>(totals.kept)) : 0.0;
     step.solvable = totals.kept >= min_pairs;
   };
-  if (method == IcpMethod::kPointToPoint) {
+  if (cost.method == IcpMethod::kPointToPoint) {
     const auto totals = reduce_pairs<KabschAccumulator>(
-        source, target, normals, c, T, centre, threshold, threads,
-        [&](KabschAccumulator& sums, const Eigen::Vector3d& p, const Eigen::Vector3d& q,
-            const Eigen::Vector3d*, double d) {
-          sums.add(p, q, weight(d));
-          return d * d;
+        in, cost.method, threads, [&](KabschAccumulator& sums, const Pair& p) {
+          sums.add(p.p, p.q, kernel_weight(cost.kernel, p.distance, cost.kernel_scale));
+          return p.distance * p.distance;
         });
     finish(totals, 3);
     if (step.solvable) step.delta = solve_kabsch(totals.sums);
     return step;
   }
-  const auto totals = reduce_pairs<LinearSystem6>(
-      source, target, normals, c, T, centre, threshold, threads,
-      [&](LinearSystem6& sums, const Eigen::Vector3d& p, const Eigen::Vector3d& q,
-          const Eigen::Vector3d* n, double) {
-        const Eigen::Vector3d& normal = *n;
-        const double r = PointToPlaneFactor::residual(p, q, normal);
-        sums.add(PointToPlaneFactor::jacobian(p, normal), r, weight(std::abs(r)));
-        return r * r;
-      });
+  const auto totals = normal_equations(in, cost, threads);
   finish(totals, 6);
   step.hessian = totals.sums.H;
-  if (step.solvable) {
-    // Solve H·x = −b in the directions the data constrains; the pose does not drift along the
-    // others (degeneracy.hpp).
-    const SystemAnalysis a = analyse_system(totals.sums.H);
-    Vector6d aligned = Vector6d::Zero();
-    if (a.usable && a.candidate(0)) {
-      const auto support = reduce_pairs<AlignedSupport>(
-          source, target, normals, c, T, centre, threshold, threads,
-          [&](AlignedSupport& sums, const Eigen::Vector3d& p, const Eigen::Vector3d& q,
-              const Eigen::Vector3d* n, double) {
-            const Eigen::Vector3d& normal = *n;
-            const double r = PointToPlaneFactor::residual(p, q, normal);
-            const Vector6d J = a.scale.cwiseProduct(PointToPlaneFactor::jacobian(p, normal));
-            const double w = weight(std::abs(r));
-            for (int i = 0; i < 6 && a.candidate(i); ++i) {
-              const double d = J.dot(a.vectors.col(i));
-              if (d * d >= kAlignedCosine * kAlignedCosine * J.squaredNorm())
-                sums.sum(i) += w * d * d;
-            }
-            return 0.0;
-          });
-      aligned = support.sums.sum;
-    }
-    ConstrainedSolve solved = solve_constrained(a, -totals.sums.b, aligned);
-    step.weak = std::move(solved.weak);
-    const Vector6d x = solved.x;
-    step.solvable = x.allFinite();
-    // The small-angle model is re-orthonormalised through the exponential map (se3.hpp).
-    if (step.solvable) step.delta = se3_exp(x);
-  }
+  if (!step.solvable) return step;
+  // Solve H·x = −b in the directions the data constrains; the pose does not drift along the others
+  // (degeneracy.hpp).
+  const SystemAnalysis a = analyse_system(totals.sums.H);
+  Vector6d aligned = Vector6d::Zero();
+  if (a.usable && a.candidate(0)) aligned = aligned_support(in, cost, a, threads);
+  ConstrainedSolve solved = solve_constrained(a, -totals.sums.b, aligned);
+  step.weak = std::move(solved.weak);
+  const Vector6d x = solved.x;
+  step.solvable = x.allFinite();
+  // The small-angle model is re-orthonormalised through the exponential map (se3.hpp); the
+  // symmetric unknowns through their own parametrisation (factors.hpp).
+  if (step.solvable)
+    step.delta = cost.method == IcpMethod::kSymmetric ? symmetric_update(x) : se3_exp(x);
   return step;
+}
+
+namespace {
+
+// The bread Σ ψ'·JᵀMJ, and each pair's gradient g = w·JᵀM e with its partner, in the method's
+// unknowns about the centre.
+struct SandwichSums {
+  Matrix6d H = Matrix6d::Zero();
+  std::vector<std::pair<std::uint64_t, Vector6d>> gradients;
+  SandwichSums& operator+=(const SandwichSums& o) {
+    H += o.H;
+    gradients.insert(gradients.end(), o.gradients.begin(), o.gradients.end());
+    return *this;
+  }
+};
+
+// Σ over partners of (Σ g)(Σ g)ᵀ: the gradients of the pairs sharing a target point summed first
+// (their residuals share that point's noise: cluster-robust).
+Matrix6d clustered_meat(std::vector<std::pair<std::uint64_t, Vector6d>>& g) {
+  std::stable_sort(g.begin(), g.end(),
+                   [](const auto& a, const auto& b) { return a.first < b.first; });
+  Matrix6d G = Matrix6d::Zero();
+  for (std::size_t i = 0; i < g.size();) {
+    Vector6d sum = Vector6d::Zero();
+    std::size_t j = i;
+    for (; j < g.size() && g[j].first == g[i].first; ++j) sum += g[j].second;
+    G.noalias() += sum * sum.transpose();
+    i = j;
+  }
+  return G;
+}
+
+}  // namespace
+
+Matrix6d pose_covariance(const StepInput& in, const StepCost& cost, const IcpStep& step,
+                         double free_sigma, int threads) {
+  auto totals =
+      reduce_pairs<SandwichSums>(in, cost.method, threads, [&](SandwichSums& s, const Pair& pair) {
+        const double d = kernel_residual(cost.method, pair);
+        const double w = kernel_weight(cost.kernel, d, cost.kernel_scale);
+        const double slope = kernel_slope(cost.kernel, d, cost.kernel_scale);
+        if (cost.method == IcpMethod::kPointToPoint || cost.method == IcpMethod::kGicp) {
+          const Eigen::Vector3d e = pair.p - pair.q;
+          const Eigen::Matrix3d M = cost.method == IcpMethod::kGicp
+                                        ? GicpFactor::weight(pair.m, pair.n)
+                                        : Eigen::Matrix3d::Identity();
+          const Eigen::Matrix<double, 6, 3> JtM = GicpFactor::jacobian(pair.p).transpose() * M;
+          s.H.noalias() += slope * JtM * GicpFactor::jacobian(pair.p);
+          s.gradients.emplace_back(pair.partner, w * JtM * e);
+        } else {
+          double r;
+          Vector6d J;
+          scalar_factor(cost.method, pair, r, J);
+          s.H.noalias() += slope * J * J.transpose();
+          s.gradients.emplace_back(pair.partner, (w * r) * J);
+        }
+        return 0.0;
+      });
+  if (totals.kept < (cost.method == IcpMethod::kPointToPoint ? 3u : 6u)) return Matrix6d::Zero();
+  const Eigen::SelfAdjointEigenSolver<Matrix6d> eig(totals.sums.H);
+  const Vector6d values = eig.eigenvalues().cwiseMax(1e-12 * eig.eigenvalues().maxCoeff());
+  const Matrix6d H_inv =
+      eig.eigenvectors() * values.cwiseInverse().asDiagonal() * eig.eigenvectors().transpose();
+  Matrix6d cov = H_inv * clustered_meat(totals.sums.gradients) * H_inv;
+  // The directions the step left free: the data do not fix them (GICP's tangential terms would
+  // otherwise claim the axial shift of a cylinder from the samplings' offsets).
+  if (!step.weak.empty()) {
+    const SystemAnalysis a = analyse_system(step.hessian);
+    for (const WeakDirection& w : step.weak) {
+      Vector6d y;
+      y << w.rotation, w.translation;
+      const Vector6d u = a.scale.cwiseProduct(y);
+      cov.noalias() += free_sigma * free_sigma * u * u.transpose();
+    }
+  }
+  // The symmetric unknowns (ã, t̃) near the optimum: the rotation turns by 2θ ≈ 2ã (factors.hpp).
+  if (cost.method == IcpMethod::kSymmetric) {
+    Vector6d d;
+    d << 2, 2, 2, 1, 1, 1;
+    cov = d.asDiagonal() * cov * d.asDiagonal();
+  }
+  // About the centre c to about the origin: v_origin = v_c + c × ω.
+  Matrix6d A = Matrix6d::Identity();
+  A.block<3, 3>(3, 0) = skew(in.centre);
+  return A * cov * A.transpose();
 }
 
 }  // namespace align3d

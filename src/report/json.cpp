@@ -49,16 +49,6 @@ nlohmann::json init_json(const AlignResult& r, const AlignSettings& s) {
           {"candidates", candidates}};
 }
 
-nlohmann::json matrix6_json(const Matrix6d& m) {  // 6 arrays of 6 numbers, row-major
-  nlohmann::json rows = nlohmann::json::array();
-  for (int r = 0; r < 6; ++r) {
-    nlohmann::json row = nlohmann::json::array();
-    for (int c = 0; c < 6; ++c) row.push_back(m(r, c));
-    rows.push_back(row);
-  }
-  return rows;
-}
-
 nlohmann::json stitch_pose_json(const StitchScan& s, const InputInfo& in) {
   return {{"file", in.path},
           {"transformation", to_json(s.transformation)},
@@ -121,6 +111,16 @@ nlohmann::json to_json(const Eigen::Isometry3d& T) {
 
 nlohmann::json to_json(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
 
+nlohmann::json matrix6_json(const Matrix6d& m) {
+  nlohmann::json rows = nlohmann::json::array();
+  for (int r = 0; r < 6; ++r) {
+    nlohmann::json row = nlohmann::json::array();
+    for (int c = 0; c < 6; ++c) row.push_back(m(r, c));
+    rows.push_back(row);
+  }
+  return rows;
+}
+
 nlohmann::json to_json(const std::vector<Warning>& warnings) {
   nlohmann::json out = nlohmann::json::array();
   for (const Warning& w : warnings) out.push_back({{"code", w.code}, {"message", w.message}});
@@ -162,9 +162,11 @@ nlohmann::json registration_report(const AlignResult& r, const AlignSettings& s,
                       {"target", input_json(target)},
                       {"method", to_string(s.refine.method)},
                       {"rejection", to_string(s.refine.rejection)},
+                      {"kernel", s.refine.kernel ? to_string(*s.refine.kernel) : "auto"},
                       {"icp_direction", r.reversed ? "target onto source" : "source onto target"},
                       {"init", init_json(r, s)},
                       {"transformation", to_json(T)},
+                      {"covariance", matrix6_json(r.covariance)},
                       {"rotation_deg", rad_to_deg(rotation_angle(T.linear()))},
                       {"translation", to_json(T.translation())},
                       {"support", to_json(r.support)},

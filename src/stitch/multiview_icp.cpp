@@ -57,7 +57,7 @@ struct Pass {
           if (n.dot(poses[a].linear() * sa.cloud->normals[sa.sample[i]]) < kMinNormalCosine) return;
           const double r = n.dot(xa - xb);
           if (collect) acc.distances.push_back(std::abs(r));
-          const double w = geman_mcclure_weight(r, scale);
+          const double w = kernel_weight(RobustKernel::kGemanMcClure, r, scale);
           Vector6d ja, jb;
           ja << (xa - centre).cross(n), n;
           jb << n.cross(xa - xb) - (xb - centre).cross(n), -n;

@@ -10,6 +10,7 @@
 
 #include "align3d/icp/degeneracy.hpp"
 #include "align3d/icp/factors.hpp"
+#include "align3d/icp/kernels.hpp"
 #include "align3d/icp/rejection.hpp"
 #include "align3d/icp/termination.hpp"
 #include "align3d/kdtree.hpp"
@@ -24,10 +25,15 @@ struct IcpSettings {
   IcpMethod method = IcpMethod::kPointToPlane;
   RejectionRule rejection = RejectionRule::median();
   TerminationSettings termination;
-  // > 0: pairs are weighted by the Geman-McClure kernel of their residual (distance for
-  // point-to-point, plane distance for point-to-plane) with this scale (data units), re-weighted
-  // every iteration (IRLS); 0: plain least squares as in the chapter.
-  double robust_scale = 0.0;
+  // Pairs are weighted by this kernel of their residual (distance for point-to-point, plane
+  // distance for the others; solver.hpp, StepCost), re-weighted every iteration (IRLS); none:
+  // plain least squares as in the chapter. kernel_scale > 0 is its scale in data units; <= 0: from
+  // the noise, re-measured each iteration (solver.hpp, StepCost).
+  RobustKernel kernel = RobustKernel::kNone;
+  double kernel_scale = 0.0;
+  // Estimate IcpResult::covariance at the returned pose (one more pass over the pairs and a sort
+  // of them); refine() asks for it in its final stage only.
+  bool covariance = false;
   int threads = 0;  // 0: all cores; the result does not depend on it
 };
 
@@ -41,19 +47,25 @@ struct IcpResult {
   std::size_t correspondences = 0;       // kept pairs
   double fitness = 0;                    // kept pairs ÷ source points (Open3D's meaning)
   std::vector<IterationRecord> history;  // iterations + 1 evaluations, the last at the result
-  // The point-to-plane system at the returned pose (H of Σ w r², in the frame centred on the target
-  // centroid, unknowns ω then v) for judging which directions the data constrains; zero for
-  // point-to-point.
+  // The method's system at the returned pose (H of Σ w r², in the frame centred on the target
+  // centroid, unknowns ω then v; ã then t̃ for symmetric) for judging which directions the data
+  // constrains; zero for point-to-point.
   Matrix6d hessian = Matrix6d::Zero();
   // Directions of that system the data leaves (nearly) free, weakest first (icp/degeneracy.hpp):
-  // every point-to-plane update is solved without moving along them. Empty when all six are
+  // every update but point-to-point's is solved without moving along them. Empty when all six are
   // constrained, and always for point-to-point.
   std::vector<WeakDirection> degenerate_directions;
+  // With IcpSettings::covariance, the covariance of the returned pose from the kept pairs'
+  // residuals (pose_covariance, solver.hpp): rotation (radians) then translation, for
+  // T ← exp(ξ)·T about the target frame's origin; zero otherwise. The accuracy of a correct
+  // convergence only: it says nothing of a wrong minimum.
+  Matrix6d covariance = Matrix6d::Zero();
 };
 
 // Registers `source` onto `target` starting from `init` (target ≈ T·source). `tree` must index
-// target.positions; point-to-plane needs target normals (std::invalid_argument otherwise, and for
-// the rejection rule kAuto, which is refine()'s schedule).
+// target.positions; every method but point-to-point needs target normals, GICP and symmetric also
+// source normals (std::invalid_argument otherwise, and for the rejection rule kAuto, which is
+// refine()'s schedule).
 IcpResult icp(const PointCloud& source, const PointCloud& target, const KdTree& tree,
               const Eigen::Isometry3d& init, const IcpSettings& settings);
 

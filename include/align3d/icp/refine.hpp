@@ -17,7 +17,10 @@
 //      (σ̂: the point-to-plane RMS of the last stage, i.e. the noise), still weighted.
 // On large clouds the coarse stages of step 2 use an even thinning of the source to at most 50 000
 // points (every m-th point along a Morton curve); the final stage uses every point.
-// Target normals are used for `auto` whatever the final metric. Measured on the conveyor
+// Target normals are used for `auto` whatever the final metric. The coarse stages run
+// point-to-plane, or the symmetric cost when it is the final metric (its wider basin is the point
+// of it). GICP in the coarse stages lost the chapter scene from 12° (7.4° off at the end), where
+// point-to-plane ones do not: GICP runs the final stage only. Measured on the conveyor
 // variants and partial object views of tests/refine_test.cpp; the point-to-point coarse stages we
 // tried first slid along the plane toward the intruder wall on the wide-plane variant.
 #pragma once
@@ -26,6 +29,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "align3d/icp/icp.hpp"
@@ -42,8 +46,17 @@ struct RefineSettings {
   // For a fixed rule, of the single run; for `auto`, of the final stage (the coarse stages have
   // their own cap of 30 iterations and looser tolerances).
   TerminationSettings termination;
-  NormalSettings normals;  // for target normals when the target has none (k; threads ignored)
-  int threads = 0;         // 0: all cores; the result does not depend on it
+  // The kernel weighing the pairs (kernels.hpp). Unset: `auto` weighs every stage by Geman-McClure
+  // at τ/2 (above), a fixed rule does not weigh. Set: the final stage of `auto` (its coarse stages
+  // keep their own), or the single run, use it; kernel_scale > 0 in data units, else
+  // kernel_tuning(kernel) × σ̂ (for `auto` the last coarse stage's RMS, for a single run the
+  // median residual of each iteration, solver.hpp).
+  std::optional<RobustKernel> kernel;
+  double kernel_scale = 0;
+  // For target normals when the target has none, and for the source's when the method needs them
+  // (GICP, symmetric) and it has none (k; threads ignored).
+  NormalSettings normals;
+  int threads = 0;  // 0: all cores; the result does not depend on it
 };
 
 // The target of any number of refinements, prepared once: a copy in spatial order (the search,
@@ -119,6 +132,11 @@ struct RefineResult {
   std::size_t estimated_normals = 0;
   std::size_t undefined_normals = 0;
 };
+
+// Sets settings.kernel and kernel_scale from a name ("auto": unset, or a name of kernels.hpp) and a
+// scale (data units, >= 0; 0: from the noise). std::invalid_argument for an unknown name, a
+// negative or non-finite scale, or a scale with "auto" (the schedule sets its own).
+void set_kernel(RefineSettings& settings, std::string_view name, double scale);
 
 // Throws DataError("source"/"target", …) when a cloud has too few points (fewer than 6, or fewer
 // than the normal neighbourhood for point-to-plane) or is degenerate (all points on one line or at

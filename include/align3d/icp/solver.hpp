@@ -1,7 +1,8 @@
 // One ICP update (chapter 39.1 step 3, 39.4): from the pairs kept at the current pose, the
-// closed-form point-to-point transform (Kabsch, kabsch.hpp) or the Gauss-Newton point-to-plane
-// step (factors.hpp), solved without moving along directions the data leaves free
-// (degeneracy.hpp). Pairs are weighted by the robust kernel (kernels.hpp).
+// closed-form point-to-point transform (Kabsch, kabsch.hpp) or the Gauss-Newton step of the
+// point-to-plane, symmetric or GICP cost (factors.hpp), solved without moving along directions the
+// data leaves free (degeneracy.hpp). Pairs are weighted by a robust kernel (kernels.hpp). And the
+// covariance of the pose those pairs determine.
 #pragma once
 
 #include <Eigen/Geometry>
@@ -10,29 +11,71 @@
 #include "align3d/icp/correspondences.hpp"
 #include "align3d/icp/degeneracy.hpp"
 #include "align3d/icp/factors.hpp"
+#include "align3d/icp/kernels.hpp"
 #include "align3d/point_cloud.hpp"
 #include "align3d/se3.hpp"
 
 namespace align3d {
 
-struct IcpStep {
-  Eigen::Isometry3d delta = Eigen::Isometry3d::Identity();  // in the frame centred on `centre`
-  double rms = 0;        // RMS residual of the kept pairs at the current pose (factors' metric)
-  std::size_t kept = 0;  // pairs with distance <= threshold
-  Matrix6d hessian = Matrix6d::Zero();  // point-to-plane H = Σ w JᵀJ (zero for point-to-point)
-  std::vector<WeakDirection> weak;      // free directions of H, weakest first
-  bool solvable = false;  // enough pairs (3 point-to-point, 6 point-to-plane) and a finite step
+// The pairs (T·source[i], target[pairs.target[i]]) with distance <= threshold, evaluated in
+// coordinates about `centre` (the sums stay conditioned far from the origin). `normals` (one per
+// target point, meaningful where pairs land) is read by every method but point-to-point;
+// `source_normals` (one per source point, in `source`'s order) by GICP and symmetric. When the
+// pairs carry their partners (pairs.point: a mesh target), those and pairs.normal are used instead
+// of `target` and `normals`.
+struct StepInput {
+  const std::vector<Eigen::Vector3d>& source;
+  const std::vector<Eigen::Vector3d>& source_normals;
+  const PointCloud& target;
+  const std::vector<Eigen::Vector3d>& normals;
+  const Correspondences& pairs;
+  const Eigen::Isometry3d& T;
+  const Eigen::Vector3d& centre;
+  double threshold;
 };
 
-// Evaluates the pairs (T·source[i], target[pairs.target[i]]) with distance <= threshold in
-// coordinates about `centre` (the sums stay conditioned far from the origin) and solves for the
-// update. `normals` (one per target point, meaningful where pairs land) is read for
-// point-to-plane only. When the pairs carry their partners (pairs.point: a mesh target), those
-// and pairs.normal are used instead of `target` and `normals`. robust_scale > 0 weights pairs by
-// the Geman-McClure kernel of that scale. Deterministic for any `threads`.
-IcpStep solve_step(const std::vector<Eigen::Vector3d>& source, const PointCloud& target,
-                   const std::vector<Eigen::Vector3d>& normals, const Correspondences& pairs,
-                   const Eigen::Isometry3d& T, const Eigen::Vector3d& centre, double threshold,
-                   IcpMethod method, double robust_scale, int threads);
+// The cost: the method, and the kernel of the pairs' residuals (distance for point-to-point, plane
+// distance for the others: GICP's full distance is mostly the samplings' offset along the surface,
+// a few spacings at the final stage, which a kernel would take for outliers). kernel_scale > 0: in
+// data units; <= 0 with a kernel: kernel_tuning(kernel) × σ̂, σ̂ = 1.4826 × the median residual of
+// the kept pairs (the noise, re-measured each iteration).
+struct StepCost {
+  IcpMethod method = IcpMethod::kPointToPlane;
+  RobustKernel kernel = RobustKernel::kNone;
+  double kernel_scale = 0;
+};
+
+struct IcpStep {
+  Eigen::Isometry3d delta = Eigen::Isometry3d::Identity();  // in the frame centred on `centre`
+  // RMS residual of the kept pairs at the current pose, in data units: the distance for
+  // point-to-point, the plane distance for point-to-plane and GICP (along the target normal) and
+  // symmetric (along the mean normal).
+  double rms = 0;
+  std::size_t kept =
+      0;  // pairs with distance <= threshold (and compatible normals: GICP, symmetric)
+  double kernel_scale = 0;  // the scale the weights used (0: none)
+  // H = Σ w JᵀJ of point-to-plane (unknowns ω, v), symmetric (ã, t̃) or GICP (Σ w Jᵀ M J);
+  // zero for point-to-point.
+  Matrix6d hessian = Matrix6d::Zero();
+  std::vector<WeakDirection> weak;  // free directions of H, weakest first
+  bool solvable = false;  // enough pairs (3 point-to-point, 6 otherwise) and a finite step
+};
+
+// Deterministic for any `threads`.
+IcpStep solve_step(const StepInput& in, const StepCost& cost, int threads);
+
+// The 6×6 covariance of the pose the pairs determine, for a left perturbation T ← exp(ξ)·T with
+// ξ = (rotation in radians, translation) about the target frame's origin. Censi 2007's closed form
+// with the residuals standing in for the noise, as a robust sandwich A⁻¹ B A⁻¹ (Huber 1981):
+// A = Σ ψ'·JᵀMJ (kernels.hpp, kernel_slope), B = Σ over target points of (Σ g)(Σ g)ᵀ, g = w·JᵀM e
+// each pair's gradient, summed over the pairs sharing a partner first (they share its noise: with
+// each pair alone the covariance was 1.8× too small on tests/icp_methods_test.cpp's surfaces).
+// A's eigenvalues are floored at 1e-12 of the largest, and each direction `step` left free
+// (step.weak) gets a standard deviation `free_sigma` (data units; the loop passes the target's
+// diagonal): the data do not fix it. `cost.kernel_scale` must be the step's
+// (IcpStep::kernel_scale). Zero with fewer pairs than the method needs. Not for point-to-point's
+// error on two samplings of a surface, which is a bias from the pairing, not noise.
+Matrix6d pose_covariance(const StepInput& in, const StepCost& cost, const IcpStep& step,
+                         double free_sigma, int threads);
 
 }  // namespace align3d

@@ -54,7 +54,7 @@ inline bool is_convergence(StopReason r) {
 // One evaluation of a pose: the initial one, then one after each update.
 struct IterationRecord {
   double rms = 0;        // RMS residual of the kept pairs at that pose: Euclidean distance
-                         // (point-to-point) or distance to the target plane (point-to-plane)
+                         // (point-to-point) or plane distance (the others; IcpStep::rms)
   std::size_t kept = 0;  // pairs that passed rejection
   double threshold = 0;  // rejection threshold used (data units; infinity for "none")
 };

@@ -25,6 +25,7 @@ namespace align3d::report {
 
 nlohmann::json to_json(const Eigen::Isometry3d& T);  // 4 arrays of 4 numbers, row-major
 nlohmann::json to_json(const Eigen::Vector3d& v);    // 3 numbers
+nlohmann::json matrix6_json(const Matrix6d& m);      // 6 arrays of 6 numbers, row-major
 nlohmann::json to_json(const std::vector<Warning>& warnings);
 nlohmann::json to_json(const GlobalResult& g);
 nlohmann::json to_json(const Support& s);

@@ -1,0 +1,253 @@
+// GICP and symmetric ICP (factors.hpp), robust kernels in the loop (kernels.hpp) and the pose
+// covariance (solver.hpp): Jacobians against finite differences, recovery of known transforms, and
+// the covariance's calibration by Monte Carlo over noise realisations.
+#include <gtest/gtest.h>
+
+#include <Eigen/Eigenvalues>
+#include <cmath>
+#include <cstdio>
+#include <functional>
+
+#include "align3d/icp/factors.hpp"
+#include "align3d/icp/refine.hpp"
+#include "align3d/kdtree.hpp"
+#include "align3d/normals.hpp"
+#include "align3d/se3.hpp"
+#include "detail/random.hpp"
+
+namespace align3d {
+namespace {
+
+Eigen::Vector3d random_vector(Random& rng) { return {rng.normal(), rng.normal(), rng.normal()}; }
+
+// The exact function the symmetric factor linearises (Rusinkiewicz 2019, eq. 7 divided by cos θ):
+// g(ã, t̃) = ((R p − R⁻¹ q) / cos θ + t̃)·n, R the rotation by θ = atan|ã| about ã/|ã|.
+double symmetric_exact(const Vector6d& x, const Eigen::Vector3d& p, const Eigen::Vector3d& q,
+                       const Eigen::Vector3d& n) {
+  const Eigen::Vector3d a = x.head<3>();
+  const double theta = std::atan(a.norm());
+  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+  if (a.norm() > 0) R = Eigen::AngleAxisd(theta, a.normalized()).toRotationMatrix();
+  return ((R * p - R.transpose() * q) / std::cos(theta) + x.tail<3>()).dot(n);
+}
+
+TEST(SymmetricFactor, JacobianMatchesFiniteDifferences) {
+  Random rng(3);
+  for (int trial = 0; trial < 20; ++trial) {
+    const Eigen::Vector3d p = 10 * random_vector(rng), q = p + random_vector(rng);
+    const Eigen::Vector3d n = random_vector(rng).normalized() + random_vector(rng).normalized();
+    const Vector6d J = SymmetricFactor::jacobian(p, q, n);
+    EXPECT_NEAR(SymmetricFactor::residual(p, q, n), symmetric_exact(Vector6d::Zero(), p, q, n),
+                1e-12);
+    for (int k = 0; k < 6; ++k) {
+      const double h = 1e-6;
+      Vector6d e = Vector6d::Zero();
+      e(k) = h;
+      const double fd = (symmetric_exact(e, p, q, n) - symmetric_exact(-e, p, q, n)) / (2 * h);
+      EXPECT_NEAR(J(k), fd, 1e-6 * (1 + std::abs(fd))) << "unknown " << k;
+    }
+  }
+}
+
+// The update applies what the objective describes: the source turned by θ, shifted by t, turned by
+// θ again (p ← R(R p + t), t = t̃ cos θ), so (U·p − q)·(R n) = cos θ · g(ã, t̃) exactly.
+TEST(SymmetricFactor, UpdateMovesTheSourceAsTheObjectiveSays) {
+  Random rng(4);
+  for (int trial = 0; trial < 20; ++trial) {
+    Vector6d x;
+    x << 0.3 * random_vector(rng), 2 * random_vector(rng);
+    const Eigen::Vector3d p = 10 * random_vector(rng), q = 10 * random_vector(rng);
+    const Eigen::Vector3d n = random_vector(rng);
+    const double theta = std::atan(x.head<3>().norm());
+    const Eigen::Matrix3d R = Eigen::AngleAxisd(theta, x.head<3>().normalized()).toRotationMatrix();
+    const Eigen::Isometry3d U = symmetric_update(x);
+    EXPECT_NEAR((U * p - q).dot(R * n), std::cos(theta) * symmetric_exact(x, p, q, n), 1e-9);
+    EXPECT_NEAR(rotation_angle(U.linear()), 2 * theta, 1e-9);  // the full turn is 2θ
+  }
+  EXPECT_TRUE(symmetric_update(Vector6d::Zero()).isApprox(Eigen::Isometry3d::Identity()));
+}
+
+// GICP: cost c(ξ) = eᵀ M e, e = exp(ξ)·x − q, M fixed. Its gradient is 2 Jᵀ M e; where e = 0 its
+// Hessian is the Gauss-Newton 2 Jᵀ M J.
+double gicp_cost(const Vector6d& xi, const Eigen::Vector3d& x, const Eigen::Vector3d& q,
+                 const Eigen::Matrix3d& M) {
+  const Eigen::Vector3d e = se3_exp(xi) * x - q;
+  return e.dot(M * e);
+}
+
+TEST(GicpFactor, GradientAndHessianMatchFiniteDifferences) {
+  Random rng(5);
+  for (int trial = 0; trial < 20; ++trial) {
+    const Eigen::Vector3d x = 10 * random_vector(rng);
+    const Eigen::Matrix3d M =
+        GicpFactor::weight(random_vector(rng).normalized(), random_vector(rng).normalized());
+    const Eigen::Matrix<double, 3, 6> J = GicpFactor::jacobian(x);
+    const double h = 1e-6;
+    const Eigen::Vector3d q = x + random_vector(rng);
+    const Vector6d gradient = 2 * J.transpose() * M * (x - q);
+    for (int k = 0; k < 6; ++k) {
+      Vector6d e = Vector6d::Zero();
+      e(k) = h;
+      const double fd = (gicp_cost(e, x, q, M) - gicp_cost(-e, x, q, M)) / (2 * h);
+      EXPECT_NEAR(gradient(k), fd, 1e-5 * (1 + std::abs(fd)));
+    }
+    const Matrix6d hessian = 2 * J.transpose() * M * J;  // at q = x
+    const double hh = 1e-4;
+    for (int a = 0; a < 6; ++a)
+      for (int b = 0; b < 6; ++b) {
+        Vector6d ea = Vector6d::Zero(), eb = Vector6d::Zero();
+        ea(a) = hh;
+        eb(b) = hh;
+        const double fd = (gicp_cost(ea + eb, x, x, M) - gicp_cost(ea - eb, x, x, M) -
+                           gicp_cost(eb - ea, x, x, M) + gicp_cost(-ea - eb, x, x, M)) /
+                          (4 * hh * hh);
+        EXPECT_NEAR(hessian(a, b), fd, 1e-3 * (1 + std::abs(fd))) << a << "," << b;
+      }
+  }
+  // The plane regularisation: eigenvalues (ε, 1, 1) with the normal the ε direction.
+  const Eigen::Vector3d n = Eigen::Vector3d(1, 2, 2) / 3;
+  EXPECT_NEAR(n.dot(GicpFactor::covariance(n) * n), GicpFactor::kEpsilon, 1e-15);
+  EXPECT_TRUE(GicpFactor::covariance(Eigen::Vector3d::Zero()).isIdentity());
+}
+
+// Noisy samples of a surface: an undulating height field over 200 × 150 (well conditioned: its
+// bumps fix all six directions), or a cylinder (its axial shift and spin are free).
+using Draw = std::function<Eigen::Vector3d(Random&)>;
+Eigen::Vector3d bumpy(Random& rng) {
+  const double x = rng.uniform(-100, 100), y = rng.uniform(-75, 75);
+  return {x, y, 12 * std::sin(x / 17) * std::cos(y / 23) + 6 * std::cos((x + 2 * y) / 31)};
+}
+Eigen::Vector3d cylinder(Random& rng) {
+  const double phi = rng.uniform(0, deg_to_rad(360));
+  return {30 * std::cos(phi), 30 * std::sin(phi), rng.uniform(-100, 100)};
+}
+PointCloud sample(int n, Random& rng, double sigma, const Draw& draw) {
+  PointCloud c;
+  for (int i = 0; i < n; ++i) c.positions.push_back(draw(rng) + sigma * random_vector(rng));
+  return c;
+}
+
+// (rotation vector, translation) of T: ξ with T = exp(ξ) in se3.hpp's convention.
+Vector6d twist_of(const Eigen::Isometry3d& T) {
+  const Eigen::AngleAxisd aa(T.linear());
+  Vector6d xi;
+  xi << aa.angle() * aa.axis(), T.translation();
+  return xi;
+}
+
+class Methods : public ::testing::TestWithParam<IcpMethod> {};
+
+// From 10° and 8 % of the diagonal off, every method reaches the truth (the identity: source and
+// target sample one surface) to within the noise's effect on the pose.
+TEST_P(Methods, RecoverAKnownTransform) {
+  Random rng(11);
+  const PointCloud target = sample(20000, rng, 0.1, bumpy);
+  const PointCloud source = sample(12000, rng, 0.1, bumpy);
+  RefineSettings s;
+  s.method = GetParam();
+  const Eigen::Isometry3d init = rigid_transform(10, {1, -2, 3}, {12, -9, 5});
+  const RefineResult r = refine(source, target, init, s);
+  EXPECT_TRUE(r.icp.converged) << to_string(r.icp.stop_reason);
+  const PoseError e = pose_error(r.icp.T_target_source, Eigen::Isometry3d::Identity());
+  EXPECT_LT(e.rotation_deg, 0.02);
+  EXPECT_LT(e.translation, 0.02);
+  EXPECT_NEAR(r.icp.rms, GetParam() == IcpMethod::kPointToPoint ? r.icp.rms : 0.1 * std::sqrt(2.0),
+              0.03);  // the plane distance of two σ = 0.1 samplings: ≈ σ√2
+}
+
+// The normalised estimation error squared ξᵀ Σ⁻¹ ξ averaged over noise realisations, ξ the pose
+// error (the truth is the identity), on the directions not in `free` (unit 6-vectors, physical
+// units); its expected value is their count.
+struct Calibration {
+  double mean_nees = 0;
+  int dimensions = 0;
+  Matrix6d last_covariance = Matrix6d::Zero();
+  std::size_t last_weak_directions = 0;
+};
+Calibration calibrate(IcpMethod method, const Draw& draw, const std::vector<Vector6d>& free,
+                      int runs) {
+  Eigen::Matrix<double, 6, Eigen::Dynamic> basis(6, 0);
+  {  // an orthonormal basis of the complement of `free`
+    Matrix6d P = Matrix6d::Identity();
+    for (const Vector6d& f : free) P -= f * f.transpose();
+    const Eigen::SelfAdjointEigenSolver<Matrix6d> eig(P);
+    for (int i = 0; i < 6; ++i)
+      if (eig.eigenvalues()(i) > 0.5) {
+        basis.conservativeResize(6, basis.cols() + 1);
+        basis.col(basis.cols() - 1) = eig.eigenvectors().col(i);
+      }
+  }
+  Calibration c;
+  c.dimensions = static_cast<int>(basis.cols());
+  for (int k = 0; k < runs; ++k) {
+    Random rng(100 + static_cast<std::uint64_t>(k));
+    const PointCloud target = sample(20000, rng, 0.1, draw);
+    const PointCloud source = sample(12000, rng, 0.1, draw);
+    RefineSettings s;
+    s.method = method;
+    const RefineResult r = refine(source, target, Eigen::Isometry3d::Identity(), s);
+    const Eigen::VectorXd xi = basis.transpose() * twist_of(r.icp.T_target_source);
+    const Eigen::MatrixXd cov = basis.transpose() * r.icp.covariance * basis;
+    c.mean_nees += xi.dot(cov.ldlt().solve(xi)) / runs;
+    c.last_covariance = r.icp.covariance;
+    c.last_weak_directions = r.icp.degenerate_directions.size();
+  }
+  return c;
+}
+
+// Calibrated: over 40 noise realisations the NEES averages within [0.5, 2] × its expected value 6.
+// Not point-to-point: on two independent samplings its error is a bias from the pairing (the
+// nearest sample is not the same surface point), which no residual-based covariance covers
+// (measured: NEES 34 × expected); solver.hpp says so.
+class Calibrated : public Methods {};
+
+TEST_P(Calibrated, OnAWellConditionedSurface) {
+  const Calibration c = calibrate(GetParam(), bumpy, {}, 40);
+  RecordProperty("mean_nees", std::to_string(c.mean_nees));
+  std::printf("%s: mean NEES %.2f (expected 6)\n", to_string(GetParam()), c.mean_nees);
+  EXPECT_EQ(c.dimensions, 6);
+  EXPECT_GT(c.mean_nees, 0.5 * 6) << to_string(GetParam());
+  EXPECT_LT(c.mean_nees, 2.0 * 6) << to_string(GetParam());
+}
+
+// A cylinder leaves its axial shift and its spin free: the loop reports both (degeneracy.hpp) and
+// does not move along them, the covariance grows along them (≥ 10⁴ × the variance of the same kind
+// across the axis), and on the four held directions the NEES averages within [0.5, 2] × 4.
+TEST_P(Calibrated, AndGrowsAlongTheFreeDirectionsOfACylinder) {
+  Vector6d spin = Vector6d::Zero(), shift = Vector6d::Zero();
+  spin(2) = 1;
+  shift(5) = 1;
+  const Calibration c = calibrate(GetParam(), cylinder, {spin, shift}, 40);
+  EXPECT_EQ(c.dimensions, 4);
+  std::printf("%s: mean NEES %.2f (expected 4)\n", to_string(GetParam()), c.mean_nees);
+  EXPECT_GT(c.mean_nees, 0.5 * 4) << to_string(GetParam());
+  EXPECT_LT(c.mean_nees, 2.0 * 4) << to_string(GetParam());
+  // In units of length (rotations × the cylinder's half length), the covariance's two largest
+  // principal directions lie in the free plane (spin, shift) and dwarf the rest.
+  Vector6d units;
+  units << 100, 100, 100, 1, 1, 1;
+  const Matrix6d S = units.asDiagonal() * c.last_covariance * units.asDiagonal();
+  const Eigen::SelfAdjointEigenSolver<Matrix6d> eig(S);
+  const Vector6d values = eig.eigenvalues();
+  EXPECT_GT(values(4), 100 * values(3));
+  for (int i = 4; i < 6; ++i) {
+    const Vector6d v = eig.eigenvectors().col(i);
+    EXPECT_GT(v(2) * v(2) + v(5) * v(5), 0.9) << v.transpose();
+  }
+  EXPECT_EQ(c.last_weak_directions, 2u);
+}
+
+std::string method_name(const ::testing::TestParamInfo<IcpMethod>& info) {
+  std::string name = to_string(info.param);
+  for (char& ch : name)
+    if (ch == '-') ch = '_';
+  return name;
+}
+INSTANTIATE_TEST_SUITE_P(Icp, Methods, ::testing::ValuesIn(kAllIcpMethods), method_name);
+INSTANTIATE_TEST_SUITE_P(Covariance, Calibrated,
+                         ::testing::Values(IcpMethod::kPointToPlane, IcpMethod::kGicp,
+                                           IcpMethod::kSymmetric),
+                         method_name);
+
+}  // namespace
+}  // namespace align3d
