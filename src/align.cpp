@@ -235,10 +235,11 @@ void Pipeline::keep(const AlignCandidate& c, RefineResult r) {
   out_.path = c.path;
   out_.support = c.support;
   out_.refine = std::move(r);
-  // A reversed run estimated T⁻¹ = exp(ξ)·T⁻¹, so T = exp(−Ad(T)·ξ)·T.
-  const Matrix6d A = adjoint(c.transformation);
-  out_.covariance = reversed_ ? Matrix6d(A * out_.refine.icp.covariance * A.transpose())
-                              : out_.refine.icp.covariance;
+  out_.covariance = out_.refine.icp.covariance;
+  if (reversed_) {  // the run estimated T⁻¹ = exp(ξ)·T⁻¹, so T = exp(−Ad(T)·ξ)·T
+    const Matrix6d A = adjoint(c.transformation);
+    out_.covariance = A * out_.covariance * A.transpose();
+  }
   out_.success = out_.refine.icp.stop_reason != StopReason::kTooFewCorrespondences;
   if (!out_.success)
     out_.failure =

@@ -10,8 +10,12 @@
 #include <pybind11/pybind11.h>
 
 #include <Eigen/Geometry>
+#include <cstddef>
 #include <optional>
+#include <stdexcept>
 #include <string>
+
+#include "align3d/icp/factors.hpp"
 
 namespace align3d::python {
 
@@ -34,5 +38,21 @@ Eigen::Isometry3d rigid(const Eigen::Matrix4d& m, const std::string& what);
 // A pose argument: None, a transform file's name (read as `--init FILE` and `--ground-truth FILE`
 // are) or a 4x4 array (checked as such a file is) (register.cpp).
 std::optional<Eigen::Isometry3d> pose(const py::object& value, const std::string& what);
+
+// The value among `choices` whose to_string() is `text`; std::invalid_argument naming `what` and
+// the choices otherwise.
+template <typename E, std::size_t kSize>
+E parse_choice(const std::string& what, const std::string& text, const E (&choices)[kSize]) {
+  std::string names;
+  for (const E c : choices) {
+    if (text == to_string(c)) return c;
+    names += (names.empty() ? "'" : ", '") + std::string(to_string(c)) + "'";
+  }
+  throw std::invalid_argument(what + ": expected one of " + names + ", got '" + text + "'");
+}
+
+// The ICP methods in the order the messages list them (the default first).
+inline constexpr IcpMethod kIcpMethods[] = {IcpMethod::kPointToPlane, IcpMethod::kPointToPoint,
+                                            IcpMethod::kGicp, IcpMethod::kSymmetric};
 
 }  // namespace align3d::python

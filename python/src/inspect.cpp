@@ -73,13 +73,7 @@ py::tuple inspect_scan(const PointCloud& scan, const Cad& cad, const InspectArgs
     throw std::invalid_argument("init: expected 'auto', 'identity', 'global' or a pose, got '" +
                                 a.init + "'");
   }
-  const std::optional<IcpMethod> method = icp_method_from_string(a.method);
-  if (!method)
-    throw std::invalid_argument(
-        "method: expected 'point-to-plane', 'point-to-point', 'gicp' or "
-        "'symmetric', got '" +
-        a.method + "'");
-  s.align.refine.method = *method;
+  s.align.refine.method = parse_choice("method", a.method, kIcpMethods);
   set_kernel(s.align.refine, a.kernel, a.kernel_scale);
   InspectResult r;
   nlohmann::json report;
@@ -128,12 +122,13 @@ void bind_inspect(py::module_& m) {
   def_inspect<PreparedTarget>(m);
   const InspectSettings s;
   m.def("inspect_defaults", [s] {
-    return py::dict(
-        py::arg("max_distance") = s.max_distance, py::arg("pass_fraction") = s.pass_fraction,
-        py::arg("init") = to_string(s.align.init),
-        py::arg("method") = to_string(s.align.refine.method), py::arg("kernel") = "auto",
-        py::arg("kernel_scale") = s.align.refine.kernel_scale, py::arg("seed") = s.align.seed,
-        py::arg("threads") = s.threads);
+    return py::dict(py::arg("max_distance") = s.max_distance,
+                    py::arg("pass_fraction") = s.pass_fraction,
+                    py::arg("init") = to_string(s.align.init),
+                    py::arg("method") = to_string(s.align.refine.method),
+                    py::arg("kernel") = kernel_name(s.align.refine),
+                    py::arg("kernel_scale") = s.align.refine.kernel_scale,
+                    py::arg("seed") = s.align.seed, py::arg("threads") = s.threads);
   });
 }
 

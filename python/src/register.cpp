@@ -20,22 +20,8 @@
 namespace align3d::python {
 namespace {
 
-// The value among `choices` whose to_string() is `text`; std::invalid_argument naming `what` and
-// the choices otherwise.
-template <typename E, std::size_t kSize>
-E parse_choice(const std::string& what, const std::string& text, const E (&choices)[kSize]) {
-  std::string names;
-  for (const E c : choices) {
-    if (text == to_string(c)) return c;
-    names += (names.empty() ? "'" : ", '") + std::string(to_string(c)) + "'";
-  }
-  throw std::invalid_argument(what + ": expected one of " + names + ", got '" + text + "'");
-}
-
 constexpr InitPolicy kInitPolicies[] = {InitPolicy::kAuto, InitPolicy::kIdentity,
                                         InitPolicy::kGlobal, InitPolicy::kPose};
-constexpr IcpMethod kMethods[] = {IcpMethod::kPointToPlane, IcpMethod::kPointToPoint,
-                                  IcpMethod::kGicp, IcpMethod::kSymmetric};
 constexpr GlobalMethod kGlobalMethods[] = {GlobalMethod::kFpfh, GlobalMethod::kPpf};
 
 // A Python progress callback behind the library's (progress.hpp: called on the thread that called
@@ -101,7 +87,7 @@ std::string register_clouds(const PointCloud& source, const Target& target, cons
   AlignSettings s;
   s.init = parse_choice("init", init, kInitPolicies);
   if (const auto T = pose(initial_pose, "init")) s.initial_pose = *T;
-  s.refine.method = parse_choice("method", method, kMethods);
+  s.refine.method = parse_choice("method", method, kIcpMethods);
   set_kernel(s.refine, kernel, kernel_scale);
   s.global.method = parse_choice("global_method", global_method, kGlobalMethods);
   try {
@@ -158,7 +144,8 @@ py::dict defaults() {
   return py::dict(
       py::arg("register") = py::dict(
           py::arg("init") = to_string(a.init), py::arg("method") = to_string(a.refine.method),
-          py::arg("kernel") = "auto", py::arg("kernel_scale") = a.refine.kernel_scale,
+          py::arg("kernel") = kernel_name(a.refine),
+          py::arg("kernel_scale") = a.refine.kernel_scale,
           py::arg("global_method") = to_string(a.global.method), py::arg("voxel") = a.global.voxel,
           py::arg("seed") = a.seed, py::arg("mutual") = a.global.mutual_filter,
           py::arg("reject") = to_string(a.refine.rejection),

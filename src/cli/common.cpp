@@ -158,9 +158,9 @@ void add_refine_options(CLI::App* sub, RefineOptions& o) {
   for (RobustKernel k : kAllKernels) kernels.push_back(to_string(k));
   sub->add_option("--method", o.method,
                   "Final ICP metric: point-to-point, point-to-plane, gicp (plane-to-plane with "
-                  "per-point covariances, as small_gicp) or symmetric (Rusinkiewicz 2019; gicp "
-                  "and symmetric also run the coarse stages and need source normals, estimated "
-                  "when the file has none)")
+                  "per-point covariances, as small_gicp) or symmetric (Rusinkiewicz 2019; it also "
+                  "runs the coarse stages). gicp and symmetric need source normals, estimated "
+                  "when the file has none")
       ->check(CLI::IsMember(methods))
       ->capture_default_str();
   sub->add_option("--kernel", o.kernel,

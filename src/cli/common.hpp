@@ -61,7 +61,7 @@ void add_seed(CLI::App* sub, std::uint64_t& seed);
 // by the commands that refine; apply_refine_options sets them (CLI11 has checked the names).
 struct RefineOptions {
   std::string method = to_string(RefineSettings{}.method);
-  std::string kernel = "auto";
+  std::string kernel = kernel_name(RefineSettings{});
   double kernel_scale = 0;
 };
 void add_refine_options(CLI::App* sub, RefineOptions& o);

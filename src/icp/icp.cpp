@@ -84,8 +84,7 @@ IcpResult run_icp(const PointCloud& source, const Target& target, const Eigen::I
   IcpResult result;
   result.T_target_source = init;
   Correspondences c;
-  double threshold = 0;
-  IcpStep last_step;
+  double threshold = 0, kernel_scale = 0;
   double previous_rms = std::numeric_limits<double>::quiet_NaN();
   for (;;) {
     if (target.surface)
@@ -100,7 +99,7 @@ IcpResult run_icp(const PointCloud& source, const Target& target, const Eigen::I
     IcpStep step = solve_step({moving, moving_normals, target_cloud, normals, c,
                                result.T_target_source, centre, threshold},
                               cost, s.threads);
-    last_step = step;
+    kernel_scale = step.kernel_scale;
     result.history.push_back({step.rms, step.kept, threshold});
     result.rms = step.rms;
     result.correspondences = step.kept;
@@ -125,8 +124,8 @@ IcpResult run_icp(const PointCloud& source, const Target& target, const Eigen::I
   if (s.covariance)
     result.covariance = pose_covariance({moving, moving_normals, target_cloud, normals, c,
                                          result.T_target_source, centre, threshold},
-                                        {s.method, s.kernel, last_step.kernel_scale}, last_step,
-                                        diagonal, s.threads);
+                                        {s.method, s.kernel, kernel_scale}, result.hessian,
+                                        result.degenerate_directions, diagonal, s.threads);
   result.fitness = source.empty() ? 0.0
                                   : static_cast<double>(result.correspondences) /
                                         static_cast<double>(source.size());

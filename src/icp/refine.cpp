@@ -169,9 +169,9 @@ namespace {
 // The `auto` schedule (refine.hpp): coarse stages at a shrinking τ, then the final stage with
 // `last` (method, termination, threads, and the kernel when one was asked for).
 template <class Run>
-RefineResult& refine_schedule(const PointCloud& source, RefineTarget& target,
-                              const Eigen::Isometry3d& init, const RefineSettings& settings,
-                              IcpSettings last, RefineResult& out, Run&& run) {
+void refine_schedule(const PointCloud& source, RefineTarget& target, const Eigen::Isometry3d& init,
+                     const RefineSettings& settings, IcpSettings last, RefineResult& out,
+                     Run&& run) {
   // L: the extent of the object, the smaller of the two clouds (cloud_stats.hpp), so that a part
   // registered into a wide scene is not pulled by clutter within an eighth of the scene's size. A
   // cloud of duplicated points has no measurable spacing; fall back to a fine fraction of L.
@@ -210,7 +210,6 @@ RefineResult& refine_schedule(const PointCloud& source, RefineTarget& target,
     last.kernel_scale = kernel_tuning(last.kernel) * sigma;
   }
   out.icp = run(source, T, last);
-  return out;
 }
 
 // `source`, or a copy with normals when the method needs them and it has none.

@@ -248,8 +248,8 @@ Matrix6d clustered_meat(std::vector<std::pair<std::uint64_t, Vector6d>>& g) {
 
 }  // namespace
 
-Matrix6d pose_covariance(const StepInput& in, const StepCost& cost, const IcpStep& step,
-                         double free_sigma, int threads) {
+Matrix6d pose_covariance(const StepInput& in, const StepCost& cost, const Matrix6d& hessian,
+                         const std::vector<WeakDirection>& weak, double free_sigma, int threads) {
   auto totals =
       reduce_pairs<SandwichSums>(in, cost.method, threads, [&](SandwichSums& s, const Pair& pair) {
         const double d = kernel_residual(cost.method, pair);
@@ -280,9 +280,9 @@ Matrix6d pose_covariance(const StepInput& in, const StepCost& cost, const IcpSte
   Matrix6d cov = H_inv * clustered_meat(totals.sums.gradients) * H_inv;
   // The directions the step left free: the data do not fix them (GICP's tangential terms would
   // otherwise claim the axial shift of a cylinder from the samplings' offsets).
-  if (!step.weak.empty()) {
-    const SystemAnalysis a = analyse_system(step.hessian);
-    for (const WeakDirection& w : step.weak) {
+  if (!weak.empty()) {
+    const SystemAnalysis a = analyse_system(hessian);
+    for (const WeakDirection& w : weak) {
       Vector6d y;
       y << w.rotation, w.translation;
       const Vector6d u = a.scale.cwiseProduct(y);

@@ -133,6 +133,11 @@ struct RefineResult {
   std::size_t undefined_normals = 0;
 };
 
+// The name set_kernel() takes for settings.kernel: "auto" when unset, else the kernel's.
+inline const char* kernel_name(const RefineSettings& settings) {
+  return settings.kernel ? to_string(*settings.kernel) : "auto";
+}
+
 // Sets settings.kernel and kernel_scale from a name ("auto": unset, or a name of kernels.hpp) and a
 // scale (data units, >= 0; 0: from the noise). std::invalid_argument for an unknown name, a
 // negative or non-finite scale, or a scale with "auto" (the schedule sets its own).

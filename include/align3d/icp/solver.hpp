@@ -51,8 +51,8 @@ struct IcpStep {
   // point-to-point, the plane distance for point-to-plane and GICP (along the target normal) and
   // symmetric (along the mean normal).
   double rms = 0;
-  std::size_t kept =
-      0;  // pairs with distance <= threshold (and compatible normals: GICP, symmetric)
+  // Pairs with distance <= threshold (and, for GICP and symmetric, compatible normals).
+  std::size_t kept = 0;
   double kernel_scale = 0;  // the scale the weights used (0: none)
   // H = Σ w JᵀJ of point-to-plane (unknowns ω, v), symmetric (ã, t̃) or GICP (Σ w Jᵀ M J);
   // zero for point-to-point.
@@ -70,12 +70,13 @@ IcpStep solve_step(const StepInput& in, const StepCost& cost, int threads);
 // A = Σ ψ'·JᵀMJ (kernels.hpp, kernel_slope), B = Σ over target points of (Σ g)(Σ g)ᵀ, g = w·JᵀM e
 // each pair's gradient, summed over the pairs sharing a partner first (they share its noise: with
 // each pair alone the covariance was 1.8× too small on tests/icp_methods_test.cpp's surfaces).
-// A's eigenvalues are floored at 1e-12 of the largest, and each direction `step` left free
-// (step.weak) gets a standard deviation `free_sigma` (data units; the loop passes the target's
-// diagonal): the data do not fix it. `cost.kernel_scale` must be the step's
-// (IcpStep::kernel_scale). Zero with fewer pairs than the method needs. Not for point-to-point's
-// error on two samplings of a surface, which is a bias from the pairing, not noise.
-Matrix6d pose_covariance(const StepInput& in, const StepCost& cost, const IcpStep& step,
-                         double free_sigma, int threads);
+// A's eigenvalues are floored at 1e-12 of the largest, and each direction the step left free
+// (`weak`, of its system `hessian`: IcpStep::weak, IcpStep::hessian) gets a standard deviation
+// `free_sigma` (data units; the loop passes the target's diagonal): the data do not fix it.
+// `cost.kernel_scale` must be the step's (IcpStep::kernel_scale). Zero with fewer pairs than the
+// method needs. Not for point-to-point's error on two samplings of a surface, which is a bias from
+// the pairing, not noise.
+Matrix6d pose_covariance(const StepInput& in, const StepCost& cost, const Matrix6d& hessian,
+                         const std::vector<WeakDirection>& weak, double free_sigma, int threads);
 
 }  // namespace align3d
