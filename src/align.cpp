@@ -1,34 +1,21 @@
 #include "align3d/align.hpp"
 
-#include <chrono>
 #include <cmath>
-#include <cstdio>
 #include <stdexcept>
 
 #include "align3d/cloud_stats.hpp"
 #include "align3d/error.hpp"
+#include "detail/number.hpp"
 #include "detail/target_side.hpp"
+#include "detail/timing.hpp"
 
 namespace align3d {
 namespace {
 
-using Clock = std::chrono::steady_clock;
-
-double ms_since(Clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-}
-
-std::string fixed(double value, int digits) {
-  char buffer[64];
-  std::snprintf(buffer, sizeof buffer, "%.*f", digits, value);
-  return buffer;
-}
-
-std::string number(double value) {
-  char buffer[64];
-  std::snprintf(buffer, sizeof buffer, "%.3g", value);
-  return buffer;
-}
+using detail::Clock;
+using detail::fixed;
+using detail::ms_since;
+using detail::number;
 
 // The noise the RMS is compared with: σ₀, but not below 5 % of the spacing (noise-free synthetic
 // data have σ₀ ≈ 0 while two samplings of one surface still differ by a little).

@@ -11,7 +11,8 @@
 namespace align3d {
 namespace {
 
-double median(std::vector<double>& v) {
+// The upper median (the middle value, or the larger of the two middle ones); reorders v.
+double upper_median(std::vector<double>& v) {
   if (v.empty()) return 0.0;
   std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
   return v[v.size() / 2];
@@ -36,7 +37,7 @@ double point_spacing(const PointCloud& cloud, const KdTree& tree, std::size_t sa
         break;
       }
   }
-  return median(d);
+  return upper_median(d);
 }
 
 double surface_noise(const PointCloud& cloud, const KdTree& tree, int k, std::size_t samples) {
@@ -66,7 +67,7 @@ double surface_noise(const PointCloud& cloud, const KdTree& tree, int k, std::si
     // Unbiased for the 6 fitted coefficients.
     rms.push_back(std::sqrt(sq / static_cast<double>(nb.size() - 6)));
   }
-  return median(rms);
+  return upper_median(rms);
 }
 
 double robust_extent(const PointCloud& cloud) {

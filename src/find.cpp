@@ -1,9 +1,7 @@
 #include "align3d/find.hpp"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
-#include <cstdio>
 #include <memory>
 #include <numeric>
 #include <stdexcept>
@@ -13,16 +11,17 @@
 #include "align3d/icp/icp.hpp"
 #include "align3d/io/point_cloud_io.hpp"
 #include "align3d/kdtree.hpp"
+#include "align3d/normals.hpp"
 #include "align3d/plane/plane.hpp"
+#include "detail/number.hpp"
 #include "detail/parallel.hpp"
+#include "detail/timing.hpp"
 
 namespace align3d {
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double ms_since(Clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-}
+using detail::Clock;
+using detail::ms_since;
 
 // Every distance below is a multiple of the model's voxel (a share of its diameter).
 constexpr std::size_t kMaxHypotheses = 400;
@@ -49,19 +48,15 @@ constexpr double kOverhangShare = 0.5;
 constexpr double kFaceDeg = 20;      // any_face_overhangs: normals of one face
 constexpr double kFaceShare = 0.25;  // of the explained points: a face worth testing
 
-std::string number(double value) {
-  char text[32];
-  std::snprintf(text, sizeof text, "%.4g", value);
-  return text;
-}
-
 void check_settings(const FindSettings& s) {
   if (s.max_instances < 0) throw std::invalid_argument("find: max_instances must be >= 0");
   if (!(s.min_score > 0 && s.min_score <= 1))
-    throw std::invalid_argument("find: min_score must be in (0, 1], got " + number(s.min_score));
+    throw std::invalid_argument("find: min_score must be in (0, 1], got " +
+                                detail::number(s.min_score, 4));
   if (!(s.min_depth >= 0) || !(s.max_depth > s.min_depth))
     throw std::invalid_argument("find: the depth range must satisfy 0 <= min < max, got " +
-                                number(s.min_depth) + " to " + number(s.max_depth));
+                                detail::number(s.min_depth, 4) + " to " +
+                                detail::number(s.max_depth, 4));
   if (s.threads < 0) throw std::invalid_argument("find: threads must be >= 0 (0: all cores)");
 }
 
@@ -140,9 +135,9 @@ Prepared prepare_scene(const FindScene& scene, const PpfModel& model, const Find
   Eigen::AlignedBox3d box;
   for (std::size_t i : kept) box.extend(prep.points[i]);
   if (box.diagonal().norm() < kMinSceneShare * model.diameter)
-    throw DataError("model", "its diameter (" + number(model.diameter) +
+    throw DataError("model", "its diameter (" + detail::number(model.diameter, 4) +
                                  ") is larger than the whole scene (extent " +
-                                 number(box.diagonal().norm()) +
+                                 detail::number(box.diagonal().norm(), 4) +
                                  "): a model in other units than the scene, or the files swapped?");
   // The dominant plane, and again while one holds kPlaneShare of what is left: a camera above a
   // bin sees the ground around it and the bin's floor, 12 mm apart.
@@ -526,7 +521,7 @@ PpfModel build_find_model(const TriangleMesh& mesh, double voxel_fraction, int t
 PpfModel build_find_model(const PointCloud& model, double voxel_fraction, int threads) {
   if (!(voxel_fraction > 0 && voxel_fraction < 1))
     throw std::invalid_argument("find: the voxel fraction must be in (0, 1), got " +
-                                number(voxel_fraction));
+                                detail::number(voxel_fraction, 4));
   if (model.size() < 10) throw DataError("model", "fewer than 10 points");
   const double diameter = bounding_box_diagonal(model);
   if (!(diameter > 0) || !std::isfinite(diameter))
@@ -586,15 +581,26 @@ std::vector<std::uint32_t> instance_points(const PpfModel& model, const KdTree& 
   return out;
 }
 
-// Final pose of an accepted instance: point-to-plane ICP of its scene points (full resolution)
-// onto the model, pairs within the explain distance; and the RMS of their plane distances.
+// Final pose of an accepted instance: ICP of its scene points (full resolution; normals toward the
+// camera when the cost needs them) onto the model, pairs within the explain distance, with the
+// settings' cost; and the RMS of the pairs (plane distances but for point-to-point).
 Eigen::Isometry3d final_refine(const PpfModel& model, const KdTree& model_tree,
                                const Prepared& prep, const std::vector<std::uint32_t>& points,
-                               const Eigen::Isometry3d& T_camera_model, double& rms) {
+                               const Eigen::Isometry3d& T_camera_model, const CostSettings& cost,
+                               double& rms) {
   PointCloud source;
   for (std::uint32_t q : points) source.positions.push_back(prep.points[q]);
   if (source.size() < kMinExplained) return T_camera_model;
+  if (needs_source_normals(cost.method)) {
+    NormalSettings ns;
+    ns.viewpoint = Eigen::Vector3d::Zero();  // the camera, in whose frame prep.points are
+    ns.threads = 1;
+    estimate_normals(source, ns);
+  }
   IcpSettings s;
+  s.method = cost.method;
+  s.kernel = cost.kernel.value_or(RobustKernel::kNone);
+  s.kernel_scale = cost.kernel_scale;
   s.rejection = RejectionRule::max_distance(kExplainVoxels * model.voxel);
   s.termination.max_iterations = 30;
   s.threads = 1;
@@ -691,7 +697,7 @@ FindResult find(const PpfModel& model, const FindScene& scene, const FindSetting
     const Hypothesis& h = hyps[accepted[k]];
     FoundInstance& out = result.instances[k];
     const Eigen::Isometry3d T =
-        final_refine(model, model_tree, prep, points[k], h.T_camera_model, out.rms);
+        final_refine(model, model_tree, prep, points[k], h.T_camera_model, settings.cost, out.rms);
     out.T_scene_model = canonical_pose(prep.image.T_cloud_camera * T, result.symmetry);
     const Evidence ev = verify(model, prep, T);
     out.score = ev.score(std::min(ev.explained, h.evidence.explained));

@@ -1,24 +1,17 @@
 #include "align3d/inspect.hpp"
 
-#include <chrono>
 #include <cmath>
-#include <cstdio>
 #include <stdexcept>
+
+#include "detail/number.hpp"
+#include "detail/timing.hpp"
 
 namespace align3d {
 namespace {
 
-using Clock = std::chrono::steady_clock;
-
-double ms_since(Clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-}
-
-std::string number(double value) {
-  char buffer[64];
-  std::snprintf(buffer, sizeof buffer, "%.3g", value);
-  return buffer;
-}
+using detail::Clock;
+using detail::ms_since;
+using detail::number;
 
 void check_settings(const InspectSettings& s) {
   const Tolerance& t = s.tolerance;

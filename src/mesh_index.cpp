@@ -21,6 +21,17 @@
 #include "detail/uninitialized.hpp"
 
 namespace align3d {
+namespace detail {
+
+// A triangle as the queries use it, in leaf order. In a named namespace, not the anonymous one:
+// MeshIndex::Impl holds them, and GCC warns of a member whose type has internal linkage once this
+// file is not the main file, as in a unity build (-Wsubobject-linkage).
+struct MeshIndexTriangle {
+  Eigen::Vector3d a, ab, ac, normal;
+  std::uint32_t index;  // in the cleaned mesh
+};
+
+}  // namespace detail
 namespace {
 
 constexpr std::uint32_t kLeafSize = 4;  // triangles per leaf at most (unless they cannot be split)
@@ -28,12 +39,7 @@ constexpr std::size_t kRun = 256;       // points a batch task walks in order (w
 constexpr int kStack = detail::kMaxDepth + 1;  // query stacks: one entry per level at most
 
 using Node = detail::BvhNode;
-
-// A triangle as the queries use it, in leaf order.
-struct Tri {
-  Eigen::Vector3d a, ab, ac, normal;
-  std::uint32_t index;  // in the cleaned mesh
-};
+using Tri = detail::MeshIndexTriangle;
 
 // A triangle's bounding box in float, rounded outwards (the grid's candidates are culled by it).
 using TriBox = detail::BvhBox;

@@ -14,7 +14,7 @@
 namespace align3d {
 namespace {
 
-constexpr std::size_t kMinPoints = 10;
+constexpr std::size_t kMinScenePoints = 10;
 constexpr double kMaxFitResidualPx = 0.5;
 constexpr double kMaxSpreadDeg = 150;
 constexpr int kMaxProjectedSide = 4096;  // pixels: bounds the made-up image's memory
@@ -74,7 +74,7 @@ RangeImage organized_range_image(const PointCloud& cloud, const std::vector<std:
     us.emplace_back(p.x() / p.z(), static_cast<double>(pixels[i] % width));
     vs.emplace_back(p.y() / p.z(), static_cast<double>(pixels[i] / width));
   }
-  if (us.size() < kMinPoints)
+  if (us.size() < kMinScenePoints)
     throw DataError("scene", std::to_string(us.size()) +
                                  " points in front of the camera; at least 10 are needed");
   const LineFit fu = fit_axis(us), fv = fit_axis(vs);
@@ -102,7 +102,7 @@ RangeImage projected_range_image(const PointCloud& cloud, const Eigen::Isometry3
     const Eigen::Vector3d d = p - eye;
     if (d.norm() > 0) mean += d.normalized(), ++front;
   }
-  if (front < kMinPoints || !(mean.norm() > 0))
+  if (front < kMinScenePoints || !(mean.norm() > 0))
     throw DataError("scene", std::to_string(front) +
                                  " points apart from the camera position; "
                                  "at least 10 are needed");
@@ -129,7 +129,7 @@ RangeImage projected_range_image(const PointCloud& cloud, const Eigen::Isometry3
     max_tan = std::max({max_tan, std::abs(p.x() / p.z()), std::abs(p.y() / p.z())});
     depths.push_back(p.z());
   }
-  if (depths.size() < kMinPoints || max_tan > max_tan_allowed)
+  if (depths.size() < kMinScenePoints || max_tan > max_tan_allowed)
     throw DataError("scene", "its points spread over more than " +
                                  std::to_string(static_cast<int>(kMaxSpreadDeg)) +
                                  " degrees around the viewpoint: no single camera sees them");

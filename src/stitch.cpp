@@ -1,7 +1,6 @@
 #include "align3d/stitch.hpp"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -23,6 +22,7 @@
 #include "align3d/normals.hpp"
 #include "align3d/stitch/multiview_icp.hpp"
 #include "align3d/stitch/pose_graph.hpp"
+#include "detail/timing.hpp"
 
 namespace align3d {
 
@@ -31,10 +31,8 @@ namespace {
 // The multi-view ICP pairs at most this many points of each scan (every m-th).
 constexpr std::size_t kMultiviewSamples = 20000;
 
-using Clock = std::chrono::steady_clock;
-double ms_since(Clock::time_point t) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
-}
+using detail::Clock;
+using detail::ms_since;
 
 // A scan as every step uses it: its points with normals towards its sensor, its tree and scale,
 // and where its sensor was (its frame).
@@ -93,6 +91,7 @@ double pair_reach(const ScanData& a, const ScanData& b) {
 AlignSettings align_settings(const StitchSettings& s, InitPolicy init) {
   AlignSettings as;
   as.init = init;
+  static_cast<CostSettings&>(as.refine) = s.cost;
   as.threads = s.threads;
   as.seed = s.seed;
   return as;
@@ -293,7 +292,7 @@ void measure_edges(std::vector<StitchEdge>& edges, const std::vector<StitchScan>
 MultiviewResult refine_views(const std::vector<ScanData>& scans,
                              const std::vector<StitchEdge>& edges,
                              const std::vector<StitchScan>& out, const StitchSettings& s,
-                             double diameter) {
+                             double diameter, double noise) {
   std::vector<MultiviewScan> views(scans.size());
   std::vector<Eigen::Isometry3d> poses(scans.size());
   double reach = 0;
@@ -319,6 +318,12 @@ MultiviewResult refine_views(const std::vector<ScanData>& scans,
   ms.length = diameter;
   ms.tolerance = 1e-6 * diameter;
   ms.threads = s.threads;
+  ms.method = s.cost.method == IcpMethod::kPointToPoint ? IcpMethod::kPointToPlane : s.cost.method;
+  if (s.cost.kernel) {
+    ms.kernel = *s.cost.kernel;
+    ms.kernel_scale = s.cost.kernel_scale > 0 ? s.cost.kernel_scale
+                                              : kernel_tuning(ms.kernel) * std::sqrt(2.0) * noise;
+  }
   return multiview_icp(views, links, poses, ms);
 }
 
@@ -461,7 +466,7 @@ StitchResult stitch(const std::vector<PointCloud>& scans, const StitchSettings& 
 
   t = Clock::now();
   if (settings.progress) settings.progress({"multi-view icp", 0, 0});
-  const MultiviewResult mv = refine_views(data, r.edges, r.scans, settings, r.diameter);
+  const MultiviewResult mv = refine_views(data, r.edges, r.scans, settings, r.diameter, noise);
   r.multiview_iterations = mv.iterations;
   for (std::size_t k = 0; k < scans.size(); ++k) {
     r.scans[k].transformation = mv.poses[k];

@@ -16,7 +16,6 @@
 namespace align3d {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
 constexpr int kMaxOrder = 12;
 // Turns a continuous symmetry must survive: unrelated to every n-fold turn up to kMaxOrder.
 constexpr std::array<double, 7> kContinuousTestDeg = {23, 41, 67, 97, 131, 163, 211};
@@ -49,7 +48,7 @@ void refine_axis(const PointCloud& model, const KdTree& tree, double near, doubl
                  int threads, Eigen::Vector3d& axis, Eigen::Vector3d& centre) {
   if (!model.has_normals()) return;
   Eigen::Isometry3d turn = Eigen::Isometry3d::Identity();
-  turn.linear() = Eigen::AngleAxisd(kRefineDeg * kPi / 180, axis).toRotationMatrix();
+  turn.linear() = Eigen::AngleAxisd(kRefineDeg * std::numbers::pi / 180, axis).toRotationMatrix();
   turn.translation() = centre - turn.linear() * centre;
   IcpSettings s;
   s.rejection = RejectionRule::max_distance(2 * near);
@@ -57,8 +56,9 @@ void refine_axis(const PointCloud& model, const KdTree& tree, double near, doubl
   s.threads = threads;
   const Eigen::Isometry3d T = icp(model, model, tree, turn, s).T_target_source;
   const Eigen::AngleAxisd aa(T.linear());
-  const double angle_change = std::abs(aa.angle() - kRefineDeg * kPi / 180);
-  if (angle_change > 10 * kPi / 180 || aa.axis().dot(axis) < std::cos(10 * kPi / 180) ||
+  const double angle_change = std::abs(aa.angle() - kRefineDeg * std::numbers::pi / 180);
+  if (angle_change > 10 * std::numbers::pi / 180 ||
+      aa.axis().dot(axis) < std::cos(10 * std::numbers::pi / 180) ||
       turned_misfit(model, tree, T, near, threads) > tolerance)
     return;
   axis = aa.axis().normalized();
@@ -126,10 +126,11 @@ Symmetry detect_symmetry(const PointCloud& model, double tolerance, int threads)
              tolerance;
     };
     bool continuous = true;
-    for (double deg : kContinuousTestDeg) continuous = continuous && passes(deg * kPi / 180);
+    for (double deg : kContinuousTestDeg)
+      continuous = continuous && passes(deg * std::numbers::pi / 180);
     if (continuous) return about(axis, centre, 0);  // nothing ranks above a continuous symmetry
     for (int n = kMaxOrder; n >= 2 && n > best.order; --n)
-      if (passes(2 * kPi / n)) {
+      if (passes(2 * std::numbers::pi / n)) {
         best = about(axis, centre, n);
         break;
       }
@@ -171,7 +172,7 @@ Eigen::Isometry3d canonical_pose(const Eigen::Isometry3d& T_scene_model, const S
   const Eigen::Vector3d E = R * symmetry.reference, F = R * symmetry.axis.cross(symmetry.reference);
   double angle = std::atan2(X.dot(F), X.dot(E));  // turn of the reference onto X
   if (symmetry.kind == Symmetry::Kind::kDiscrete) {
-    const double step = 2 * kPi / symmetry.order;
+    const double step = 2 * std::numbers::pi / symmetry.order;
     angle = step * std::round(angle / step);
   }
   return T_scene_model * symmetry.turn(angle);

@@ -6,14 +6,14 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <numbers>
 
 #include "align3d/mesh_index.hpp"
+#include "test_util.hpp"
 
 namespace align3d::synth {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
+using test::kPi;
 
 double polygon_factor(int n) { return n / 2.0 * std::sin(2 * kPi / n); }  // area of unit n-gon
 

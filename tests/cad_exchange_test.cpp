@@ -10,7 +10,6 @@
 #include <fstream>
 #include <limits>
 #include <map>
-#include <numbers>
 #include <stdexcept>
 #include <string>
 #include <thread>
@@ -43,9 +42,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-void write_text(const fs::path& path, const std::string& text) {
-  std::ofstream(path, std::ios::binary) << text;
-}
+using test::write_text;
 
 // The error read_mesh throws for `path`, which must be an IoError naming the file.
 std::string io_error(const fs::path& path) {
@@ -74,7 +71,7 @@ TEST(CadExchange, WithoutOpenCascadeStepIsAnIoErrorThatSaysSo) {
 
 #else
 
-constexpr double kPi = std::numbers::pi;
+using test::kPi;
 
 // Area, enclosed volume (divergence theorem: Σ a·(b × c) / 6 over outward triangles) and whether
 // the triangles close up: after welding identical coordinates, every edge must be used by exactly

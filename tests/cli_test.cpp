@@ -24,11 +24,10 @@ namespace align3d {
 namespace {
 
 using test::CliRun;
+using test::code;
 using test::read_text;
 using test::run;
 using test::write_text;
-
-int code(ExitCode c) { return static_cast<int>(c); }
 
 // `align3d batch` runs the Python package's engine (its own tests: python/tests/test_batch.py); a
 // Python that cannot be run is a usage error naming ALIGN3D_PYTHON, not a crash.
@@ -261,6 +260,11 @@ TEST_F(CliBadInput, WrongFlags) {
   expect_failure({"register", scene("scan.ply"), scene("model.ply"), "--kernel", "huber",
                   "--kernel-scale", "nan"},
                  code(ExitCode::kUsage), "--kernel-scale");
+  // find's flags of the same names (the scene is never read: the flags fail first)
+  expect_failure({"find", scene("model.ply"), scene("scan.ply"), "--method", "plane"},
+                 code(ExitCode::kUsage), "--method");
+  expect_failure({"find", scene("model.ply"), scene("scan.ply"), "--kernel-scale", "1"},
+                 code(ExitCode::kUsage), "needs a kernel");
 }
 
 // execute() is run() with the errors let through (the Python binding maps them): the same

@@ -4,10 +4,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <cstring>
 
 #include "align3d/se3.hpp"
 #include "align3d/synth/camera.hpp"
+#include "test_util.hpp"
 
 namespace align3d::synth {
 namespace {
@@ -29,12 +29,7 @@ PinholeCamera centred_camera() {  // principal point on a pixel centre, for exac
   return c;
 }
 
-bool same_bits(const OrganizedCloud& a, const OrganizedCloud& b) {
-  return a.width == b.width && a.height == b.height && a.shape == b.shape &&
-         a.positions.size() == b.positions.size() &&
-         std::memcmp(a.positions.data(), b.positions.data(),
-                     a.positions.size() * sizeof(Eigen::Vector3d)) == 0;
-}
+using test::same_bits;
 
 // A camera `height` above the floor z = 0, looking down (image up = world +y), then tilted by θ
 // about world x, which is the camera's x.

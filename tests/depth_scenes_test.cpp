@@ -6,10 +6,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <cstring>
 
 #include "align3d/kdtree.hpp"
 #include "align3d/se3.hpp"
+#include "test_util.hpp"
 
 namespace align3d::synth {
 namespace {
@@ -22,11 +22,7 @@ double object_surface_distance(const Eigen::Vector3d& p) {
   return d;
 }
 
-bool same_bits(const OrganizedCloud& a, const OrganizedCloud& b) {
-  return a.shape == b.shape && a.positions.size() == b.positions.size() &&
-         std::memcmp(a.positions.data(), b.positions.data(),
-                     a.positions.size() * sizeof(Eigen::Vector3d)) == 0;
-}
+using test::same_bits;
 
 TEST(DepthScenes, TestObjectModelCoversItsOuterSurface) {
   const PointCloud model = test_object_model(20000, 1);

@@ -73,9 +73,9 @@ Fixture make_fixture() {
 }
 
 // A pixel of a PNG read back (png_image.hpp), as a vector to measure colour distances.
-class Image {
+class ColourImage {
  public:
-  explicit Image(const fs::path& path) : png_(path) {}
+  explicit ColourImage(const fs::path& path) : png_(path) {}
   bool ok() const { return png_.ok(); }
   int width() const { return png_.width(); }
   int height() const { return png_.height(); }
@@ -117,7 +117,7 @@ TEST_F(FindOverlay, ImageTintsEachMaskInItsRanksColour) {
   const Fixture f = make_fixture();
   const fs::path png = dir_ / "find.png";
   write_find_image(png, f.result);
-  const Image image(png);
+  const ColourImage image(png);
   ASSERT_TRUE(image.ok());
   EXPECT_EQ(image.width(), kWidth);
   EXPECT_EQ(image.height(), kHeight);
@@ -143,7 +143,7 @@ TEST_F(FindOverlay, ImageOfAnEmptyResultIsTheDepthAlone) {
   f.result.instances.clear();
   const fs::path png = dir_ / "none.png";
   write_find_image(png, f.result);
-  const Image image(png);
+  const ColourImage image(png);
   ASSERT_TRUE(image.ok());
   EXPECT_EQ(image.width(), kWidth);
   EXPECT_EQ(image.height(), kHeight);

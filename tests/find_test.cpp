@@ -36,13 +36,15 @@ struct Scored {
 
 // Finds the part in a generated scene and scores the poses against the truth (BOP: ADD-S below
 // 10 % of the diameter; instances at least half visible count).
-Scored find_and_score(BinPart part, int instances, std::uint64_t seed, int threads = 2) {
+Scored find_and_score(BinPart part, int instances, std::uint64_t seed, int threads = 2,
+                      const CostSettings& cost = {}) {
   synth::BinPickingSettings bs;
   bs.part = part, bs.instances = instances, bs.seed = seed, bs.threads = threads;
   const synth::BinPickingScene scene = synth::make_bin_picking_scene(bs);
   const PpfModel model = build_find_model(scene.model, kFindVoxelFraction, threads);
   FindSettings fs;
   fs.threads = threads;
+  fs.cost = cost;
   Scored out{find(model, scene_of(scene), fs), {}, {}};
   const PointCloud samples = sample_surface(scene.model, 2000);
   const AddS add_s(samples.positions);
@@ -172,6 +174,19 @@ TEST(Find, ReportsEachTurnedPartOnceInCanonicalPose) {
          f.T_scene_model.matrix())
             .norm(),
         1e-6);
+}
+
+// The final refinement with another cost (GICP, scene normals estimated toward the camera; the
+// symmetric objective with a Tukey kernel from the noise) finds the same instances of a scene.
+TEST(Find, EveryCostFindsTheSameInstances) {
+  const Scored plane = find_and_score(BinPart::kBracket, 6, 1);
+  for (const CostSettings& cost : {CostSettings{IcpMethod::kGicp, std::nullopt, 0},
+                                   CostSettings{IcpMethod::kSymmetric, RobustKernel::kTukey, 0}}) {
+    const Scored s = find_and_score(BinPart::kBracket, 6, 1, 2, cost);
+    EXPECT_EQ(s.match.true_positives, plane.match.true_positives) << to_string(cost.method);
+    EXPECT_EQ(s.match.false_positives, plane.match.false_positives) << to_string(cost.method);
+    EXPECT_GT(s.match.true_positives, 0u);
+  }
 }
 
 TEST(Find, EmptyBinGivesNoInstance) {

@@ -29,16 +29,8 @@ namespace fs = std::filesystem;
 
 const fs::path kHostileDir = fs::path(ALIGN3D_TEST_DATA_DIR) / "hostile";
 
-std::string read_text(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-void write_text(const fs::path& p, const std::string& text) {
-  std::ofstream(p, std::ios::binary) << text;
-}
+using test::read_text;
+using test::write_text;
 
 struct Process {
   bool exited = false;  // false: killed by a signal (a crash)

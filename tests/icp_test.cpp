@@ -11,7 +11,6 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
-#include <limits>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -23,21 +22,12 @@
 #include "align3d/se3.hpp"
 #include "align3d/synth/scenes.hpp"
 #include "detail/random.hpp"
+#include "test_util.hpp"
 
 namespace align3d {
 namespace {
 
-constexpr double kInf = std::numeric_limits<double>::infinity();
-
-struct PoseError {
-  double rotation_deg;
-  double translation;
-};
-
-PoseError pose_error(const Eigen::Isometry3d& estimate, const Eigen::Isometry3d& truth) {
-  const Eigen::Isometry3d d = truth.inverse() * estimate;
-  return {rad_to_deg(rotation_angle(d.linear())), d.translation().norm()};
-}
+using test::kInf;
 
 // The bracket (synth::make_object_scene: an L-bracket with a boss and a dome, ~90 mm) seen whole,
 // 8000 points, σ = 0.1 mm,

@@ -26,7 +26,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-constexpr double kNan = std::numeric_limits<double>::quiet_NaN();
+using test::kNan;
 
 // A 10 mm cube and 400 scan points on its top face (20 × 20), 10 of them 0.15 above the band,
 // 10 of them 0.2 below, the rest 0.01; plus 5 outliers far off. The scan is in its own frame:

@@ -14,6 +14,7 @@
 
 #include "align3d/se3.hpp"
 #include "detail/random.hpp"
+#include "test_util.hpp"
 
 namespace align3d {
 namespace {
@@ -24,10 +25,7 @@ Eigen::Matrix3d random_rotation(Random& rng) {
   return Eigen::Quaterniond(w, x, y, z).normalized().toRotationMatrix();
 }
 
-Eigen::Vector3d random_vector(Random& rng, double lo, double hi) {
-  const double x = rng.uniform(lo, hi), y = rng.uniform(lo, hi), z = rng.uniform(lo, hi);
-  return {x, y, z};
-}
+using test::random_vector;
 
 std::vector<Eigen::Vector3d> random_points(std::size_t n, Random& rng,
                                            const Eigen::Vector3d& offset, double half_size) {
@@ -51,10 +49,7 @@ double cost(const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
   return sum;
 }
 
-void expect_proper_rotation(const Eigen::Matrix3d& R) {
-  EXPECT_NEAR(R.determinant(), 1.0, 1e-12);
-  EXPECT_LT((R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff(), 1e-12);
-}
+using test::expect_proper_rotation;
 
 TEST(Kabsch, RecoversRandomRigidTransformsExactly) {
   Random rng(201);

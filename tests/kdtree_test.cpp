@@ -19,11 +19,12 @@
 
 #include "detail/float_round.hpp"
 #include "detail/random.hpp"
+#include "test_util.hpp"
 
 namespace align3d {
 namespace {
 
-constexpr double kInf = std::numeric_limits<double>::infinity();
+using test::kInf;
 
 double sq_dist(const Eigen::Vector3d& query, const Eigen::Vector3d& p) {
   double sum = 0;

@@ -40,7 +40,7 @@ PointCloud scan_of(const TriangleMesh& part, const Eigen::Isometry3d& truth, dou
   return scan;
 }
 
-Eigen::Isometry3d pose(double deg, const Eigen::Vector3d& axis, const Eigen::Vector3d& t) {
+Eigen::Isometry3d pose_deg(double deg, const Eigen::Vector3d& axis, const Eigen::Vector3d& t) {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
   T.rotate(Eigen::AngleAxisd(deg * M_PI / 180, axis.normalized()));
   T.pretranslate(t);
@@ -52,7 +52,7 @@ const Eigen::Vector3d kView = Eigen::Vector3d(0.3, -0.4, 1).normalized();
 TEST(MeshAlign, IcpOntoTheSurfaceRecoversTheSmallPose) {
   const TriangleMesh part = l_part();
   const auto surface = std::make_shared<const MeshIndex>(part);
-  const Eigen::Isometry3d truth = pose(3, {1, 2, 3}, {1.5, -1, 0.5});
+  const Eigen::Isometry3d truth = pose_deg(3, {1, 2, 3}, {1.5, -1, 0.5});
   const PointCloud scan = scan_of(part, truth, 0.0, kView, 1);
   for (IcpMethod method : {IcpMethod::kPointToPlane, IcpMethod::kPointToPoint}) {
     IcpSettings s;
@@ -70,7 +70,7 @@ TEST(MeshAlign, IcpOntoTheSurfaceRecoversTheSmallPose) {
 
 TEST(MeshAlign, AlignOntoAMeshFindsThePoseFromAnyStart) {
   const TriangleMesh part = l_part();
-  const Eigen::Isometry3d truth = pose(140, {1, -1, 0.5}, {30, -20, 10});
+  const Eigen::Isometry3d truth = pose_deg(140, {1, -1, 0.5}, {30, -20, 10});
   const PointCloud scan = scan_of(part, truth, 0.02, kView, 2);
   const AlignResult r = align(scan, part);
   ASSERT_TRUE(r.success) << r.failure;
@@ -97,7 +97,7 @@ TEST(MeshAlign, ALocalBumpDoesNotPullTheRobustFit) {
   const TriangleMesh part = l_part();
   const auto surface = std::make_shared<const MeshIndex>(part);
   RefineTarget target(surface);
-  const Eigen::Isometry3d truth = pose(2, {0, 1, 1}, {0.5, 0.3, -0.2});
+  const Eigen::Isometry3d truth = pose_deg(2, {0, 1, 1}, {0.5, 0.3, -0.2});
   const PointCloud scan = scan_of(part, truth, 0.01, kView, 3, &bump);
   const RefineResult robust = refine(scan, target, Eigen::Isometry3d::Identity());
   RefineSettings plain;
@@ -122,7 +122,7 @@ TEST(MeshAlign, ALocalBumpDoesNotPullTheRobustFit) {
 
 TEST(MeshAlign, SameDataInMetresGivesTheSamePose) {
   const TriangleMesh part = l_part();
-  const Eigen::Isometry3d truth = pose(25, {1, 0, 1}, {4, -3, 2});
+  const Eigen::Isometry3d truth = pose_deg(25, {1, 0, 1}, {4, -3, 2});
   const PointCloud scan = scan_of(part, truth, 0.02, kView, 4);
   TriangleMesh part_m = part;
   for (auto& v : part_m.vertices) v *= 1e-3;

@@ -9,7 +9,6 @@
 
 #include <Eigen/Core>
 #include <array>
-#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
@@ -68,29 +67,7 @@ Eigen::Vector3d as_float32(const Eigen::Vector3d& v) {
   return out;
 }
 
-// Builds binary content value by value in a chosen byte order.
-class Bytes {
- public:
-  explicit Bytes(bool big_endian = false) : big_endian_(big_endian) {}
-  Bytes& text(std::string_view s) {
-    data_ += s;
-    return *this;
-  }
-  template <typename T>
-  Bytes& put(T value) {
-    auto bytes = std::bit_cast<std::array<char, sizeof(T)>>(value);
-    if (big_endian_ != (std::endian::native == std::endian::big)) {
-      std::reverse(bytes.begin(), bytes.end());
-    }
-    data_.append(bytes.data(), bytes.size());
-    return *this;
-  }
-  const std::string& str() const { return data_; }
-
- private:
-  bool big_endian_;
-  std::string data_;
-};
+using test::Bytes;
 
 class MeshIo : public ::testing::Test {
  protected:

@@ -9,27 +9,24 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <numbers>
 #include <stdexcept>
 #include <vector>
 
 #include "align3d/se3.hpp"
 #include "detail/random.hpp"
+#include "test_util.hpp"
 
 namespace align3d {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
+using test::kPi;
 
 Eigen::Vector3d gaussian3(Random& rng) {
   const double x = rng.normal(), y = rng.normal(), z = rng.normal();
   return {x, y, z};
 }
 
-// Angle between two lines (sign ignored), in degrees.
-double line_angle_deg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
-  return rad_to_deg(std::atan2(a.cross(b).norm(), std::abs(a.dot(b))));
-}
+using test::line_angle_deg;
 
 double rms(const std::vector<double>& v) {
   double sum = 0;

@@ -26,7 +26,7 @@
 namespace align3d::synth {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using test::kPi;
 
 // Every undirected edge used exactly twice, once in each direction: closed, manifold and
 // consistently wound (the brute-force count, independent of analyse_topology).

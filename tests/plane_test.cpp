@@ -15,27 +15,17 @@
 #include "align3d/se3.hpp"
 #include "align3d/synth/scenes.hpp"
 #include "detail/random.hpp"
+#include "test_util.hpp"
 
 namespace align3d {
 namespace {
 
-// Angle between two lines (sign ignored), in degrees.
-double line_angle_deg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
-  return rad_to_deg(std::atan2(a.cross(b).norm(), std::abs(a.dot(b))));
-}
+using test::expect_proper_rotation;
+using test::line_angle_deg;
+using test::random_unit;
 
 double angle_deg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
   return rad_to_deg(std::atan2(a.cross(b).norm(), a.dot(b)));
-}
-
-Eigen::Vector3d random_unit(Random& rng) {
-  const double x = rng.normal(), y = rng.normal(), z = rng.normal();
-  return Eigen::Vector3d(x, y, z).normalized();
-}
-
-void expect_proper_rotation(const Eigen::Matrix3d& R) {
-  EXPECT_NEAR(R.determinant(), 1.0, 1e-12);
-  EXPECT_LT((R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff(), 1e-12);
 }
 
 const Eigen::Vector3d kNormal = Eigen::Vector3d(0.2, -0.35, 0.9).normalized();

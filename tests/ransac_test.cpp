@@ -26,9 +26,7 @@ Eigen::Vector3d random_direction(Random& rng) {
   return Eigen::Vector3d(x, y, z).normalized();
 }
 
-double rotation_error_deg(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
-  return rad_to_deg(rotation_angle(a.linear().transpose() * b.linear()));
-}
+using test::rotation_error_deg;
 
 // Translation error where it matters: at the source's centroid (the transforms' own translations
 // also carry rotation error times the distance from the origin).

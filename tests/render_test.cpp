@@ -29,7 +29,7 @@ namespace {
 constexpr int kSide = 200;  // square images: the cube's extent fills 90 % of them in every view
 constexpr std::uint32_t kWhite = 0xffffffffu;
 const Tolerance kBand{-0.1, 0.1};
-constexpr double kNan = std::numeric_limits<double>::quiet_NaN();
+using test::kNan;
 
 std::uint32_t packed(const Rgb& c) {
   auto byte = [](double v) { return static_cast<std::uint32_t>(std::lround(255 * v)); };

@@ -7,27 +7,19 @@
 
 #include <Eigen/Geometry>
 #include <cmath>
-#include <numbers>
 #include <vector>
 
 #include "align3d/icp/factors.hpp"
 #include "align3d/icp/kernels.hpp"
 #include "detail/random.hpp"
+#include "test_util.hpp"
 
 namespace align3d {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
-
-Eigen::Vector3d random_vector(Random& rng, double lo, double hi) {
-  const double x = rng.uniform(lo, hi), y = rng.uniform(lo, hi), z = rng.uniform(lo, hi);
-  return {x, y, z};
-}
-
-Eigen::Vector3d random_unit(Random& rng) {
-  const double x = rng.normal(), y = rng.normal(), z = rng.normal();
-  return Eigen::Vector3d(x, y, z).normalized();
-}
+using test::kPi;
+using test::random_unit;
+using test::random_vector;
 
 // exp(S) = Σ Sᵏ/k!, summed until the terms vanish (|ω| <= π keeps the series well behaved).
 Eigen::Matrix3d exp_series(const Eigen::Matrix3d& S) {

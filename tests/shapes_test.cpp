@@ -7,11 +7,12 @@
 #include <cmath>
 
 #include "align3d/se3.hpp"
+#include "test_util.hpp"
 
 namespace align3d::synth {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using test::kPi;
 
 Eigen::Isometry3d some_pose() {
   return rigid_transform(37, Eigen::Vector3d(1, -2, 0.5), Eigen::Vector3d(12, -7, 30));

@@ -24,11 +24,11 @@ namespace {
 
 namespace fs = std::filesystem;
 using test::CliRun;
+using test::code;
 using test::read_text;
 using test::run;
 using test::write_text;
 
-int code(ExitCode c) { return static_cast<int>(c); }
 bool mentions(const std::string& text, const std::string& what) {
   return text.find(what) != std::string::npos;
 }
@@ -66,7 +66,11 @@ TEST(StitchCli, BadFlagsAreUsageErrors) {
                                                 {"--voxel", "-1"},
                                                 {"--voxel", "nan"},
                                                 {"--threads", "-2"},
-                                                {"--seed", "-1"}}) {
+                                                {"--seed", "-1"},
+                                                {"--method", "plane"},
+                                                {"--kernel", "bisquare"},
+                                                {"--kernel-scale", "-1"},
+                                                {"--kernel-scale", "2"}}) {  // with kernel auto
     std::vector<std::string> args = {"stitch", a, b};
     args.insert(args.end(), extra.begin(), extra.end());
     const CliRun r = run(args);
@@ -211,6 +215,9 @@ TEST(StitchReport, HasEveryKeyInItsShape) {
                           "multiview_iterations", "voxel", "viewpoints", "seed", "threads"})
     EXPECT_TRUE(j["settings"].contains(key)) << key;
   EXPECT_EQ(j["settings"]["viewpoints"][2], nlohmann::json({0.0, 0.0, 5.0}));
+  EXPECT_EQ(
+      j["settings"]["icp"],
+      nlohmann::json({{"method", "point-to-plane"}, {"kernel", "auto"}, {"kernel_scale", 0}}));
   EXPECT_THROW(report::stitch_report(made_up_result(), s, {kInputs[0]}, "", true),
                std::invalid_argument);
 }

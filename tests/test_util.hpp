@@ -1,17 +1,29 @@
 // Helpers shared by the tests.
 #pragma once
 
+#include <gtest/gtest.h>
+
 #include <Eigen/Geometry>
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
+#include <numbers>
 #include <random>
 #include <sstream>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "align3d/cli.hpp"
+#include "align3d/error.hpp"
 #include "align3d/point_cloud.hpp"
 #include "align3d/se3.hpp"
+#include "align3d/synth/camera.hpp"
 #include "detail/random.hpp"
 
 namespace align3d::test {
@@ -76,6 +88,13 @@ inline CliRun run(const std::vector<std::string>& args) {
   return {code, out.str(), err.str()};
 }
 
+inline constexpr double kPi = std::numbers::pi;
+inline constexpr double kInf = std::numeric_limits<double>::infinity();
+inline constexpr double kNan = std::numeric_limits<double>::quiet_NaN();
+
+// An exit code as cli::run returns it.
+inline int code(ExitCode c) { return static_cast<int>(c); }
+
 inline double rotation_error_deg(const Eigen::Isometry3d& estimate,
                                  const Eigen::Isometry3d& truth) {
   return pose_error(estimate, truth).rotation_deg;
@@ -84,6 +103,60 @@ inline double rotation_error_deg(const Eigen::Isometry3d& estimate,
 inline double translation_error(const Eigen::Isometry3d& estimate, const Eigen::Isometry3d& truth) {
   return pose_error(estimate, truth).translation;
 }
+
+// Three uniform draws from [lo, hi), x first.
+inline Eigen::Vector3d random_vector(Random& rng, double lo, double hi) {
+  const double x = rng.uniform(lo, hi), y = rng.uniform(lo, hi), z = rng.uniform(lo, hi);
+  return {x, y, z};
+}
+
+// A direction uniform on the unit sphere.
+inline Eigen::Vector3d random_unit(Random& rng) {
+  const double x = rng.normal(), y = rng.normal(), z = rng.normal();
+  return Eigen::Vector3d(x, y, z).normalized();
+}
+
+// The angle between the lines along a and b (a direction and its opposite are one line), degrees.
+inline double line_angle_deg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  return rad_to_deg(std::atan2(a.cross(b).norm(), std::abs(a.dot(b))));
+}
+
+inline void expect_proper_rotation(const Eigen::Matrix3d& R) {
+  EXPECT_NEAR(R.determinant(), 1.0, 1e-12);
+  EXPECT_LT((R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff(), 1e-12);
+}
+
+// Two organized clouds equal to the bit: size, shape labels and positions (NaN included).
+inline bool same_bits(const synth::OrganizedCloud& a, const synth::OrganizedCloud& b) {
+  return a.width == b.width && a.height == b.height && a.shape == b.shape &&
+         a.positions.size() == b.positions.size() &&
+         std::memcmp(a.positions.data(), b.positions.data(),
+                     a.positions.size() * sizeof(Eigen::Vector3d)) == 0;
+}
+
+// Builds binary file content value by value in a chosen byte order.
+class Bytes {
+ public:
+  explicit Bytes(bool big_endian = false) : big_endian_(big_endian) {}
+  Bytes& text(std::string_view s) {
+    data_ += s;
+    return *this;
+  }
+  template <typename T>
+  Bytes& put(T value) {
+    auto bytes = std::bit_cast<std::array<char, sizeof(T)>>(value);
+    if (big_endian_ != (std::endian::native == std::endian::big)) {
+      std::reverse(bytes.begin(), bytes.end());
+    }
+    data_.append(bytes.data(), bytes.size());
+    return *this;
+  }
+  const std::string& str() const { return data_; }
+
+ private:
+  bool big_endian_;
+  std::string data_;
+};
 
 // The six faces of a 60 × 40 × 20 box centred at the origin, sampled uniformly by area: a shape
 // with symmetries, for ambiguity tests.

@@ -57,6 +57,7 @@
 #include <vector>
 
 #include "align3d/coarse/ppf.hpp"
+#include "align3d/icp/refine.hpp"
 #include "align3d/mesh.hpp"
 #include "align3d/point_cloud.hpp"
 #include "align3d/range_image.hpp"
@@ -83,6 +84,10 @@ struct FindSettings {
   double max_depth = std::numeric_limits<double>::infinity();
   std::uint64_t seed = 1;  // the floor's RANSAC
   int threads = 0;         // 0: all cores; the result does not depend on it
+  // The ICP cost and kernel of each instance's final refinement (step 6; the hypotheses of step 3
+  // are refined point-to-plane). Unset kernel: none (the pairs are within the explain distance
+  // already); a kernel with scale 0: its tuning constant × σ̂ of each iteration (icp/solver.hpp).
+  CostSettings cost;
 };
 
 // The scene as read: the points, and where they came from.

@@ -319,6 +319,9 @@ def find(
     report: Optional[PathLike] = ...,
     output: Optional[PathLike] = ...,
     image: Optional[PathLike] = ...,
+    method: str = ...,
+    kernel: str = ...,
+    kernel_scale: float = ...,
     strict: bool = ...,
 ) -> FindResult: ...
 
@@ -370,5 +373,8 @@ def stitch(
     figure: Optional[PathLike] = ...,
     html: Optional[PathLike] = ...,
     scan_index: bool = ...,
+    method: str = ...,
+    kernel: str = ...,
+    kernel_scale: float = ...,
     strict: bool = ...,
 ) -> StitchResult: ...

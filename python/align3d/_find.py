@@ -13,7 +13,7 @@ from . import _core
 from ._cloud import PathLike, PointCloud, matrix, rows
 from ._errors import DataError
 from ._mesh import TriangleMesh, is_mesh_file, read_mesh
-from ._register import _Report, _is_path, _warn_all, _write_report
+from ._register import _Report, _is_path, _real, _text, _warn_all, _write_report
 
 _DEFAULTS = _core.find_defaults()
 
@@ -45,14 +45,18 @@ def find(model: Any, scene: PathLike, *, max_instances: int = 0,
          voxel_fraction: float = _DEFAULTS["voxel_fraction"], keep_plane: bool = False,
          depth_range: Optional[Sequence[float]] = None, seed: int = 1, threads: int = 0,
          report: Optional[PathLike] = None, output: Optional[PathLike] = None,
-         image: Optional[PathLike] = None, strict: bool = False) -> FindResult:
+         image: Optional[PathLike] = None, method: str = _DEFAULTS["method"],
+         kernel: str = _DEFAULTS["kernel"], kernel_scale: float = _DEFAULTS["kernel_scale"],
+         strict: bool = False) -> FindResult:
     """Every instance of the part ``model`` in ``scene`` (``align3d find MODEL SCENE``).
 
     ``model``: a TriangleMesh, a PointCloud with outward normals, or a file (a mesh, a cloud, or a
     description saved by ``align3d.ppf_model(..., find=True)``, .ppf). ``scene``: a point cloud
     file; an organized PCD (a depth camera's image) is used as one. ``depth_range``: (min, max)
-    along the camera axis. ``report``, ``output`` (PLY) and ``image`` (PNG) write what the command
-    line writes. Raises what the command line reports (DataError naming the file, SettingsError);
+    along the camera axis. ``method``, ``kernel`` (``"auto"``: none here) and ``kernel_scale``:
+    the ICP cost of each instance's final refinement, as :func:`register` takes them
+    (``--method``, ``--kernel``, ``--kernel-scale``). ``report``, ``output`` (PLY) and ``image``
+    (PNG) write what the command line writes. Raises what the command line reports (DataError naming the file, SettingsError);
     with ``strict``, warnings raise StrictError."""
     lo, hi = (0.0, float("inf")) if depth_range is None else (float(depth_range[0]),
                                                               float(depth_range[1]))
@@ -82,7 +86,9 @@ def find(model: Any, scene: PathLike, *, max_instances: int = 0,
                       symmetry=str(symmetry), keep_plane=bool(keep_plane), seed=int(seed),
                       threads=int(threads), model_path=model_path, scene_path=os.fspath(scene),
                       output=os.fspath(output) if output else "",
-                      image=os.fspath(image) if image else "")
+                      image=os.fspath(image) if image else "", method=_text("method", method),
+                      kernel=_text("kernel", kernel),
+                      kernel_scale=_real("kernel_scale", kernel_scale))
     result = FindResult(json.loads(text))
     if report is not None:
         _write_report(report, text)

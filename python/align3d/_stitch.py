@@ -12,7 +12,8 @@ import numpy as np
 from . import _core
 from ._cloud import PathLike, PointCloud, _read, rows
 from ._errors import DataError, StrictError
-from ._register import _Report, _int32, _is_path, _real, _seed, _warn_all, _write_report
+from ._register import (_Report, _int32, _is_path, _real, _seed, _text, _warn_all,
+                        _write_report)
 
 _DEFAULTS = _core.stitch_defaults()
 
@@ -111,7 +112,9 @@ def stitch(scans: Sequence[Any], *, min_overlap: float = _DEFAULTS["min_overlap"
            viewpoints: Optional[Any] = None, seed: int = 1, threads: int = 0,
            report: Optional[PathLike] = None, output: Optional[PathLike] = None,
            figure: Optional[PathLike] = None, html: Optional[PathLike] = None,
-           scan_index: bool = True, strict: bool = False) -> StitchResult:
+           scan_index: bool = True, method: str = _DEFAULTS["method"],
+           kernel: str = _DEFAULTS["kernel"], kernel_scale: float = _DEFAULTS["kernel_scale"],
+           strict: bool = False) -> StitchResult:
     """Stitches many scans of one object into the frame of the first (``align3d stitch``): every
     pair registered coarsely, the overlapping ones refined, a pose graph optimised, a multi-view
     ICP, and the scans merged into one cloud with normals.
@@ -121,7 +124,12 @@ def stitch(scans: Sequence[Any], *, min_overlap: float = _DEFAULTS["min_overlap"
     ``viewpoints``: where each scan's sensor was, in its own frame, (K, 3); None: a PCD file's
     VIEWPOINT, else the origin (a depth camera's own coordinates). ``min_overlap``, ``voxel``
     (0: from the point spacing), ``prune_rotation`` (degrees), ``prune_translation`` (share of the
-    object's diameter), ``multiview_iterations``, ``seed``, ``threads``: as the flags. ``report``,
+    object's diameter), ``multiview_iterations``, ``seed``, ``threads``: as the flags.
+    ``method`` (``"point-to-plane"``, ``"point-to-point"``, ``"gicp"``, ``"symmetric"``),
+    ``kernel`` (``"auto"``: the pairs' schedule's own and Geman-McClure for the multi-view ICP, or
+    a kernel as :func:`register` takes) and ``kernel_scale`` (0: from the noise): the ICP cost of
+    each pair's refinement and of the multi-view ICP (point-to-plane there for point-to-point),
+    as ``--method``, ``--kernel``, ``--kernel-scale``. ``report``,
     ``output`` (PLY; ``scan_index=False`` leaves its ``scan`` property out), ``figure`` (PNG) and
     ``html`` write what the command line writes. Scans that overlap no other are a result
     (``connected`` False, an ``unconnected_scan`` warning), not an exception: the command line's
@@ -149,7 +157,8 @@ def stitch(scans: Sequence[Any], *, min_overlap: float = _DEFAULTS["min_overlap"
         viewpoints=eyes, seed=_seed(seed), threads=_int32("threads", threads),
         paths=[p for _, p, _ in loaded], output=os.fspath(output) if output else "",
         figure=os.fspath(figure) if figure else "", html=os.fspath(html) if html else "",
-        scan_index=bool(scan_index))
+        scan_index=bool(scan_index), method=_text("method", method),
+        kernel=_text("kernel", kernel), kernel_scale=_real("kernel_scale", kernel_scale))
     result = StitchResult(json.loads(text), PointCloud._wrap(merged), merged_scan)
     if report is not None:
         _write_report(report, text)

@@ -16,6 +16,7 @@
 #include <string>
 
 #include "align3d/icp/factors.hpp"
+#include "align3d/icp/refine.hpp"
 
 namespace align3d::python {
 
@@ -54,5 +55,11 @@ E parse_choice(const std::string& what, const std::string& text, const E (&choic
 // The ICP methods in the order the messages list them (the default first).
 inline constexpr IcpMethod kIcpMethods[] = {IcpMethod::kPointToPlane, IcpMethod::kPointToPoint,
                                             IcpMethod::kGicp, IcpMethod::kSymmetric};
+
+// Sets the ICP cost from the keywords `method`, `kernel` and `kernel_scale` of register, inspect,
+// stitch and find (the command line's --method, --kernel, --kernel-scale); std::invalid_argument
+// naming the keyword otherwise (register.cpp).
+void set_cost(CostSettings& cost, const std::string& method, const std::string& kernel,
+              double kernel_scale);
 
 }  // namespace align3d::python

@@ -22,6 +22,8 @@ struct FindArgs {
   std::uint64_t seed;
   int threads;
   std::string model_path, scene_path, output, image;
+  std::string method, kernel;
+  double kernel_scale;
 };
 
 // MODEL: a mesh or a cloud (built here), or a saved description (.ppf path); SCENE: a file.
@@ -31,6 +33,7 @@ std::string find_in(const Model& model_data, const FindArgs& a) {
   s.max_instances = a.max_instances, s.min_score = a.min_score;
   s.min_depth = a.min_depth, s.max_depth = a.max_depth;
   s.remove_plane = !a.keep_plane, s.seed = a.seed, s.threads = a.threads;
+  set_cost(s.cost, a.method, a.kernel, a.kernel_scale);
   py::gil_scoped_release release;
   // A problem of the model or the scene names its file when it came from one, as the command's
   // errors do (src/cli/find_command.cpp).
@@ -71,15 +74,17 @@ void def_find(py::module_& m) {
       [](const Model& model, int max_instances, double min_score, double voxel_fraction,
          double min_depth, double max_depth, const std::string& symmetry, bool keep_plane,
          std::uint64_t seed, int threads, const std::string& model_path,
-         const std::string& scene_path, const std::string& output, const std::string& image) {
+         const std::string& scene_path, const std::string& output, const std::string& image,
+         const std::string& method, const std::string& kernel, double kernel_scale) {
         return find_in(model, FindArgs{max_instances, min_score, voxel_fraction, min_depth,
                                        max_depth, symmetry, keep_plane, seed, threads, model_path,
-                                       scene_path, output, image});
+                                       scene_path, output, image, method, kernel, kernel_scale});
       },
       py::arg("model"), py::kw_only(), py::arg("max_instances"), py::arg("min_score"),
       py::arg("voxel_fraction"), py::arg("min_depth"), py::arg("max_depth"), py::arg("symmetry"),
       py::arg("keep_plane"), py::arg("seed"), py::arg("threads"), py::arg("model_path"),
-      py::arg("scene_path"), py::arg("output"), py::arg("image"));
+      py::arg("scene_path"), py::arg("output"), py::arg("image"), py::arg("method"),
+      py::arg("kernel"), py::arg("kernel_scale"));
 }
 
 }  // namespace
@@ -89,8 +94,11 @@ void bind_find(py::module_& m) {
   def_find<PointCloud>(m);
   def_find<std::string>(m);  // a saved description (.ppf)
   m.def("find_defaults", [] {
-    return py::dict(py::arg("min_score") = kFindMinScore,
-                    py::arg("voxel_fraction") = kFindVoxelFraction);
+    const FindSettings s;
+    return py::dict(
+        py::arg("min_score") = s.min_score, py::arg("voxel_fraction") = kFindVoxelFraction,
+        py::arg("method") = to_string(s.cost.method), py::arg("kernel") = kernel_name(s.cost),
+        py::arg("kernel_scale") = s.cost.kernel_scale);
   });
 }
 

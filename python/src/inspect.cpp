@@ -73,8 +73,7 @@ py::tuple inspect_scan(const PointCloud& scan, const Cad& cad, const InspectArgs
     throw std::invalid_argument("init: expected 'auto', 'identity', 'global' or a pose, got '" +
                                 a.init + "'");
   }
-  s.align.refine.method = parse_choice("method", a.method, kIcpMethods);
-  set_kernel(s.align.refine, a.kernel, a.kernel_scale);
+  set_cost(s.align.refine, a.method, a.kernel, a.kernel_scale);
   InspectResult r;
   nlohmann::json report;
   {

@@ -87,8 +87,7 @@ std::string register_clouds(const PointCloud& source, const Target& target, cons
   AlignSettings s;
   s.init = parse_choice("init", init, kInitPolicies);
   if (const auto T = pose(initial_pose, "init")) s.initial_pose = *T;
-  s.refine.method = parse_choice("method", method, kIcpMethods);
-  set_kernel(s.refine, kernel, kernel_scale);
+  set_cost(s.refine, method, kernel, kernel_scale);
   s.global.method = parse_choice("global_method", global_method, kGlobalMethods);
   try {
     s.refine.rejection = parse_rejection_rule(reject);
@@ -196,6 +195,12 @@ std::optional<Eigen::Isometry3d> pose(const py::object& value, const std::string
   if (value.is_none()) return std::nullopt;
   if (py::isinstance<py::str>(value)) return io::read_matrix(value.cast<std::string>());
   return rigid(value.cast<Eigen::Matrix4d>(), what);
+}
+
+void set_cost(CostSettings& cost, const std::string& method, const std::string& kernel,
+              double kernel_scale) {
+  cost.method = parse_choice("method", method, kIcpMethods);
+  set_kernel(cost, kernel, kernel_scale);
 }
 
 void bind_register(py::module_& m) {

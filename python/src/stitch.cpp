@@ -28,6 +28,8 @@ struct StitchArgs {
   std::vector<std::string> paths;  // per scan, "" in memory
   std::string output, figure, html;
   bool scan_index;
+  std::string method, kernel;
+  double kernel_scale;
 };
 
 static_assert(sizeof(Eigen::Vector3d) == 3 * sizeof(double), "a point is 3 packed doubles");
@@ -57,6 +59,7 @@ py::tuple stitch_scans(const std::vector<PointCloud>& scans, const StitchArgs& a
   s.prune_rotation_deg = a.prune_rotation, s.prune_translation = a.prune_translation;
   s.multiview_iterations = a.multiview_iterations;
   s.viewpoints = a.viewpoints, s.seed = a.seed, s.threads = a.threads;
+  set_cost(s.cost, a.method, a.kernel, a.kernel_scale);
   StitchResult r;
   std::string report;
   {
@@ -85,23 +88,28 @@ void bind_stitch(py::module_& m) {
          double prune_rotation, double prune_translation, int multiview_iterations,
          const Rows& viewpoints, std::uint64_t seed, int threads,
          const std::vector<std::string>& paths, const std::string& output,
-         const std::string& figure, const std::string& html, bool scan_index) {
+         const std::string& figure, const std::string& html, bool scan_index,
+         const std::string& method, const std::string& kernel, double kernel_scale) {
         return stitch_scans(
-            scans, StitchArgs{min_overlap, voxel, prune_rotation, prune_translation,
-                              multiview_iterations, points_of(viewpoints, "viewpoints"), seed,
-                              threads, paths, output, figure, html, scan_index});
+            scans,
+            StitchArgs{min_overlap, voxel, prune_rotation, prune_translation, multiview_iterations,
+                       points_of(viewpoints, "viewpoints"), seed, threads, paths, output, figure,
+                       html, scan_index, method, kernel, kernel_scale});
       },
       py::arg("scans"), py::kw_only(), py::arg("min_overlap"), py::arg("voxel"),
       py::arg("prune_rotation"), py::arg("prune_translation"), py::arg("multiview_iterations"),
       py::arg("viewpoints"), py::arg("seed"), py::arg("threads"), py::arg("paths"),
-      py::arg("output"), py::arg("figure"), py::arg("html"), py::arg("scan_index"));
+      py::arg("output"), py::arg("figure"), py::arg("html"), py::arg("scan_index"),
+      py::arg("method"), py::arg("kernel"), py::arg("kernel_scale"));
   const StitchSettings s;
   m.def("stitch_defaults", [s] {
-    return py::dict(py::arg("min_overlap") = s.min_overlap, py::arg("voxel") = s.voxel,
-                    py::arg("prune_rotation") = s.prune_rotation_deg,
-                    py::arg("prune_translation") = s.prune_translation,
-                    py::arg("multiview_iterations") = s.multiview_iterations,
-                    py::arg("seed") = s.seed, py::arg("threads") = s.threads);
+    return py::dict(
+        py::arg("min_overlap") = s.min_overlap, py::arg("voxel") = s.voxel,
+        py::arg("prune_rotation") = s.prune_rotation_deg,
+        py::arg("prune_translation") = s.prune_translation,
+        py::arg("multiview_iterations") = s.multiview_iterations, py::arg("seed") = s.seed,
+        py::arg("threads") = s.threads, py::arg("method") = to_string(s.cost.method),
+        py::arg("kernel") = kernel_name(s.cost), py::arg("kernel_scale") = s.cost.kernel_scale);
   });
 }
 

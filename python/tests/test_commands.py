@@ -2,6 +2,7 @@
 
 import json
 import re
+import subprocess
 import warnings
 
 import numpy as np
@@ -101,7 +102,7 @@ def test_demo_reproduces_the_chapter(tmp_path):
     assert results["icp"][3]["rotation_error_deg"] < 0.1
 
 
-def test_find_with_a_saved_model_gives_the_same_instances(tmp_path):
+def test_find_with_a_saved_model_gives_the_same_instances(tmp_path, cli):
     # ppf_model(find=True) saves what find() builds from the mesh: the same instances either way.
     truth = align3d.synth(tmp_path / "bin", scene="bin", instances=3, distractors=1, seed=4)
     stl, pcd = tmp_path / "bin" / "model.stl", tmp_path / "bin" / "scene.pcd"
@@ -116,6 +117,18 @@ def test_find_with_a_saved_model_gives_the_same_instances(tmp_path):
     near = [min(np.linalg.norm(f["transformation"][:3, 3] - c) for c in centres) < 5.0
             for f in from_file.instances]
     assert sum(near) >= 2
+    # The final refinement's cost, as --method and --kernel take it: the same report.
+    ours = align3d.find(tmp_path / "part.ppf", pcd, threads=2, method="symmetric",
+                        kernel="huber").to_dict()
+    theirs = json.loads(subprocess.run(
+        [str(cli), "find", str(tmp_path / "part.ppf"), str(pcd), "--threads",
+         "2", "--method", "symmetric", "--kernel", "huber", "--report", "-", "--quiet"],
+        capture_output=True, text=True).stdout)
+    for report in (ours, theirs):
+        report.pop("timing_ms")
+    assert ours == theirs and ours["settings"]["icp"]["method"] == "symmetric"
+    with pytest.raises(align3d.SettingsError, match="kernel: expected one of"):
+        align3d.find(stl, pcd, kernel="bisquare")
     with pytest.raises(align3d.SettingsError, match=r"--voxel"):
         align3d.ppf_model(stl, tmp_path / "x.ppf", find=True, voxel=3.0)
     # The part in millimetres, the scene in metres: the error names the model's file, as the

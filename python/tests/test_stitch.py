@@ -74,6 +74,12 @@ def test_bad_arguments_raise_naming_the_problem(tmp_path):
         align3d.stitch([a, a], viewpoints=np.zeros((3, 3)))
     with pytest.raises(TypeError, match="threads"):
         align3d.stitch([a, a], threads=1.5)
+    with pytest.raises(align3d.SettingsError, match="method: expected one of 'point-to-plane'"):
+        align3d.stitch([a, a], method="plane")
+    with pytest.raises(align3d.SettingsError, match="kernel scale: needs a kernel"):
+        align3d.stitch([a, a], kernel_scale=1.0)
+    with pytest.raises(TypeError, match="kernel"):
+        align3d.stitch([a, a], kernel=None)
 
 
 def test_keywords_are_named_after_the_cli_flags(cli):
@@ -132,6 +138,24 @@ def test_python_and_the_command_line_write_the_same_report(scene, result, cli, t
     for report in (from_cli, from_python):
         report.pop("timings")
     assert from_python == from_cli
+
+
+def test_the_icp_cost_reaches_the_report_as_on_the_command_line(scene, cli, tmp_path):
+    _, _, files = scene
+    # Four neighbours of the ring: enough to check the cost's way through. Its warnings (two
+    # scans on one edge, a wrong edge pruned) are the defaults' too.
+    files = files[:4]
+    with pytest.warns(align3d.AlignWarning):
+        ours = stitched(files, threads=2, method="gicp", kernel="cauchy",
+                        kernel_scale=0.5).to_dict()
+    subprocess.run([str(cli), "stitch", *map(str, files), "--threads", "2", "--method", "gicp",
+                    "--kernel", "cauchy", "--kernel-scale", "0.5", "--report",
+                    str(tmp_path / "cli.json"), "--quiet"], check=False)
+    theirs = json.loads((tmp_path / "cli.json").read_text())
+    for report in (ours, theirs):
+        report.pop("timings")
+    assert ours == theirs
+    assert ours["settings"]["icp"] == {"method": "gicp", "kernel": "cauchy", "kernel_scale": 0.5}
 
 
 def test_mixed_inputs_and_no_scan_index(scene, tmp_path):

@@ -152,21 +152,27 @@ void add_strict(CLI::App* sub, bool& strict) {
                 "Exit with code 7 when the result comes with warnings (outputs are written)");
 }
 
-void add_refine_options(CLI::App* sub, RefineOptions& o) {
+RefineHelp schedule_refine_help() {
+  return {"the final stage of the coarse-to-fine schedule (symmetric also runs its coarse stages)",
+          "the schedule's own (Geman-McClure at half the stage's reach; none with a fixed --reject "
+          "rule)"};
+}
+
+void add_refine_options(CLI::App* sub, RefineOptions& o, const RefineHelp& help) {
   std::vector<std::string> methods, kernels{"auto"};
   for (IcpMethod m : kAllIcpMethods) methods.push_back(to_string(m));
   for (RobustKernel k : kAllKernels) kernels.push_back(to_string(k));
   sub->add_option("--method", o.method,
-                  "Final ICP metric: point-to-point, point-to-plane, gicp (plane-to-plane with "
-                  "per-point covariances, as small_gicp) or symmetric (Rusinkiewicz 2019; it also "
-                  "runs the coarse stages). gicp and symmetric need source normals, estimated "
-                  "when the file has none")
+                  "ICP metric of " + help.method_applies_to +
+                      ": point-to-point, point-to-plane, gicp (plane-to-plane with per-point "
+                      "covariances, as small_gicp) or symmetric (Rusinkiewicz 2019). gicp and "
+                      "symmetric need source normals, estimated when the file has none")
       ->check(CLI::IsMember(methods))
       ->capture_default_str();
   sub->add_option("--kernel", o.kernel,
                   "Robust kernel weighing ICP's pairs: none, huber, cauchy, geman-mcclure, tukey, "
-                  "welsch; auto: the coarse-to-fine schedule's own (Geman-McClure at half the "
-                  "stage's reach; none with a fixed --reject rule)")
+                  "welsch; auto: " +
+                      help.auto_kernel)
       ->check(CLI::IsMember(kernels))
       ->capture_default_str();
   sub->add_option("--kernel-scale", o.kernel_scale,
@@ -177,7 +183,7 @@ void add_refine_options(CLI::App* sub, RefineOptions& o) {
       ->capture_default_str();
 }
 
-void apply_refine_options(const RefineOptions& o, RefineSettings& s) {
+void apply_refine_options(const RefineOptions& o, CostSettings& s) {
   s.method = icp_method_from_string(o.method).value_or(s.method);
   try {
     set_kernel(s, o.kernel, o.kernel_scale);

@@ -57,15 +57,22 @@ void apply_init(const std::string& init, AlignSettings& settings);
 void add_init(CLI::App* sub, std::string& init, const std::string& matrix_file);
 void add_seed(CLI::App* sub, std::uint64_t& seed);
 
-// --method, --kernel and --kernel-scale of the ICP refinement (RefineSettings, refine.hpp), shared
+// --method, --kernel and --kernel-scale of the ICP refinement (CostSettings, refine.hpp), shared
 // by the commands that refine; apply_refine_options sets them (CLI11 has checked the names).
 struct RefineOptions {
-  std::string method = to_string(RefineSettings{}.method);
-  std::string kernel = kernel_name(RefineSettings{});
+  std::string method = to_string(CostSettings{}.method);
+  std::string kernel = kernel_name(CostSettings{});
   double kernel_scale = 0;
 };
-void add_refine_options(CLI::App* sub, RefineOptions& o);
-void apply_refine_options(const RefineOptions& o, RefineSettings& s);
+// The command's words in the help: which ICP runs the method refines, what `--kernel auto` is.
+struct RefineHelp {
+  std::string method_applies_to;
+  std::string auto_kernel;
+};
+// register and inspect: refine()'s schedule.
+RefineHelp schedule_refine_help();
+void add_refine_options(CLI::App* sub, RefineOptions& o, const RefineHelp& help);
+void apply_refine_options(const RefineOptions& o, CostSettings& s);
 
 // Parses "X,Y,Z": exactly three finite numbers (throws UsageError naming `flag`).
 Eigen::Vector3d parse_vector(const std::string& text, const std::string& flag);

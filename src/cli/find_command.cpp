@@ -19,6 +19,7 @@ struct FindOptions {
   double voxel_fraction = kFindVoxelFraction;
   bool keep_plane = false, strict = false, quiet = false;
   FindSettings settings;
+  RefineOptions refine;
 };
 
 // MODEL: a saved description (.ppf, from `align3d ppf-model --find`), a mesh or a cloud.
@@ -78,6 +79,7 @@ void print_summary(std::ostream& out, const FindOptions& o, const FindResult& r)
 int run_find(FindOptions& o, Streams io) {
   FindSettings& s = o.settings;
   apply_depth_range(o.depth_range, s);
+  apply_refine_options(o.refine, s.cost);
   s.remove_plane = !o.keep_plane;
   report::InputInfo model_info, scene_info{o.scene, 0, 0};
   const PpfModel model = load_model(o, io, model_info);
@@ -158,6 +160,9 @@ Command add_find(CLI::App& app, Streams io) {
                   "property `instance`: 0 scene, else the rank)");
   sub->add_option("--image", o->image,
                   "Write the depth image with each instance's mask, outline and rank (PNG)");
+  add_refine_options(
+      sub, o->refine,
+      {"each instance's final refinement (hypotheses are refined point-to-plane)", "none"});
   add_seed(sub, s.seed);
   add_strict(sub, o->strict);
   add_quiet(sub, o->quiet);

@@ -180,7 +180,7 @@ Command add_inspect(CLI::App& app, Streams io) {
                   "The band: T for ±T, or LOWER,UPPER (e.g. -0.05,+0.2), in data units")
       ->required();
   add_init(sub, o->init, "a file with a 4x4 matrix (scan → CAD; ICP starts there)");
-  add_refine_options(sub, o->refine);
+  add_refine_options(sub, o->refine, schedule_refine_help());
   sub->add_option("--max-distance", s.max_distance,
                   "Points farther than this from every surface are outliers (data units); 0: the "
                   "larger of 5 x the band's larger half and 1 % of the CAD model's diagonal")

@@ -156,7 +156,7 @@ Command add_register(CLI::App& app, Streams io) {
                   "Target: a cloud, the fixed reference, or a mesh (.stl .obj .off .step .iges, a "
                   ".ply with faces: a CAD model, registered onto its exact surface)")
       ->required();
-  add_refine_options(sub, o->refine);
+  add_refine_options(sub, o->refine, schedule_refine_help());
   add_init(sub, o->init, "a file with a 4x4 matrix (4 rows of 4 numbers; ICP starts there)");
   sub->add_option("--global", o->global,
                   "Global method: fpfh (descriptors + RANSAC) or ppf (point pair features, "

@@ -28,6 +28,7 @@ struct StitchOptions {
   std::string list, report, output, figure, html;
   bool no_scan_index = false, strict = false, quiet = false;
   StitchSettings settings;
+  RefineOptions refine;
 };
 
 std::string trimmed(const std::string& line) {
@@ -119,6 +120,7 @@ int run_stitch(StitchOptions& o, Streams io) {
   ProgressLine progress(io.err, o.quiet, "stitch");
   Scans scans = load_scans(files, io, progress);
   StitchSettings& s = o.settings;
+  apply_refine_options(o.refine, s.cost);
   s.viewpoints = scans.viewpoints;
   s.progress = progress.callback();
   StitchResult r;
@@ -211,6 +213,11 @@ Command add_stitch(CLI::App& app, Streams io) {
                   "Write the merged cloud from above and from the front, coloured by scan (PNG)");
   sub->add_option("--html", o->html,
                   "Write an offline HTML page: the figure, the poses, the edges, the warnings");
+  add_refine_options(sub, o->refine,
+                     {"each pair's refinement (its final stage) and of the multi-view ICP (which "
+                      "runs point-to-plane for point-to-point)",
+                      "the schedule's own for the pairs, Geman-McClure at half the reach for the "
+                      "multi-view ICP"});
   add_seed(sub, s.seed);
   add_strict(sub, o->strict);
   add_quiet(sub, o->quiet);

@@ -28,7 +28,6 @@
 namespace align3d {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
 constexpr std::size_t kMinPoints = 10;
 constexpr std::size_t kMaxModelPoints = 1500;
 constexpr int kNormalNeighbours = 15;
@@ -90,7 +89,7 @@ bool feature_values(const Eigen::Vector3d& p1, const Eigen::Vector3d& n1, const 
   const double distance = d.norm();
   if (!(distance > 0)) return false;
   d /= distance;
-  const double step = kPi / bins;
+  const double step = std::numbers::pi / bins;
   const auto angle = [&](double cosine) { return std::acos(std::clamp(cosine, -1.0, 1.0)) / step; };
   f = {distance / voxel, angle(n1.dot(d)), angle(n2.dot(d)), angle(n1.dot(n2))};
   return true;
@@ -172,7 +171,7 @@ void accumulate_votes(const PpfModel& model, const PointCloud& down, const KdTre
   thread_local std::vector<Neighbor> nb;
   const double voxel = model.voxel;
   const std::uint32_t bins = model.angle_bins;
-  const double alpha_step = 2 * kPi / bins;
+  const double alpha_step = 2 * std::numbers::pi / bins;
   const double sq_diameter = model.diameter * model.diameter;
   const Eigen::Vector3d& p_r = down.positions[r];
   const Eigen::Vector3d& n_r = down.normals[r];
@@ -189,10 +188,11 @@ void accumulate_votes(const PpfModel& model, const PointCloud& down, const KdTre
     const double alpha_s = half_plane_angle(T_s, down.positions[m.index]);
     for (std::uint32_t e = model.offsets[k]; e < model.offsets[k + 1]; ++e) {
       double alpha = model.alphas[e] - alpha_s;  // α = α_m − α_s, wrapped to [−π, π)
-      if (alpha < -kPi) alpha += 2 * kPi;
-      if (alpha >= kPi) alpha -= 2 * kPi;
+      if (alpha < -std::numbers::pi) alpha += 2 * std::numbers::pi;
+      if (alpha >= std::numbers::pi) alpha -= 2 * std::numbers::pi;
       const auto b = std::min<std::uint32_t>(
-          bins - 1, static_cast<std::uint32_t>(std::max(0.0, (alpha + kPi) / alpha_step)));
+          bins - 1,
+          static_cast<std::uint32_t>(std::max(0.0, (alpha + std::numbers::pi) / alpha_step)));
       ++votes[static_cast<std::size_t>(model.refs[e]) * bins + b];
     }
   }
@@ -234,7 +234,7 @@ std::vector<Peaks> vote(const PpfModel& model, const PointCloud& down, const KdT
 std::vector<Candidate> peak_poses(const PpfModel& model, const PointCloud& down,
                                   const std::vector<Peaks>& peaks) {
   const std::uint32_t bins = model.angle_bins;
-  const double alpha_step = 2 * kPi / bins;
+  const double alpha_step = 2 * std::numbers::pi / bins;
   std::vector<Candidate> candidates;
   for (std::size_t j = 0; j < peaks.size(); ++j) {
     const std::size_t r = j * kSceneReferenceStep;
@@ -242,7 +242,7 @@ std::vector<Candidate> peak_poses(const PpfModel& model, const PointCloud& down,
     for (const Peak& peak : peaks[j]) {
       if (peak.votes == 0) break;
       const std::size_t m = peak.cell / bins;
-      const double alpha = -kPi + (peak.cell % bins + 0.5) * alpha_step;
+      const double alpha = -std::numbers::pi + (peak.cell % bins + 0.5) * alpha_step;
       const Eigen::Isometry3d T_m = to_x_axis(model.points.positions[m], model.points.normals[m]);
       candidates.push_back(
           {T_m.inverse() * Eigen::AngleAxisd(-alpha, Eigen::Vector3d::UnitX()) * T_s,
@@ -541,7 +541,7 @@ void read_entries(BodyReader& body, const TableCounts& n, PpfModel& model) {
       throw body.error("entry " + std::to_string(e) + " names point " +
                            std::to_string(model.refs[e]) + " of " + std::to_string(n.points),
                        at);
-    if (!(std::abs(model.alphas[e]) <= kPi + 1e-5))
+    if (!(std::abs(model.alphas[e]) <= std::numbers::pi + 1e-5))
       throw body.error("entry " + std::to_string(e) + " has an angle outside [-pi, pi]", at + 4);
   }
 }
@@ -783,7 +783,8 @@ class VoteTable {
   }
   // The bin of an angle in [−π, π].
   std::uint32_t alpha_bin(double alpha) const {
-    const auto b = static_cast<std::uint32_t>(std::max(0.0, (alpha + kPi) / (2 * kPi) * bins_));
+    const auto b = static_cast<std::uint32_t>(
+        std::max(0.0, (alpha + std::numbers::pi) / (2 * std::numbers::pi) * bins_));
     return std::min(b, bins_ - 1);
   }
   std::uint32_t row(std::size_t e) const { return row_[e]; }
@@ -842,7 +843,7 @@ void accumulate_spread_votes(const PpfModel& model, const VoteTable& table, cons
     for (int a = 1; a < 4; ++a) count[a] = spread_bins(f[a], bins - 1, b[a]);
     // The bin of α = α_m − α_s is that of α_m (bins from −π) less ⌊α_s / step⌋, modulo bins.
     const auto alpha_s = static_cast<long>(
-        std::floor(half_plane_angle(T_s, down.positions[m.index]) / (2 * kPi) * bins));
+        std::floor(half_plane_angle(T_s, down.positions[m.index]) / (2 * std::numbers::pi) * bins));
     const auto shift =
         static_cast<std::uint32_t>(((-alpha_s) % static_cast<long>(bins) + bins) % bins);
     const std::uint32_t pair = ++acc.pair;

@@ -16,7 +16,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
-#include <cstdio>
 #include <memory>
 #include <nanoflann.hpp>
 #include <string>
@@ -31,6 +30,7 @@
 #include "align3d/kdtree.hpp"
 #include "align3d/normals.hpp"
 #include "align3d/se3.hpp"
+#include "detail/number.hpp"
 #include "detail/parallel.hpp"
 #include "detail/random.hpp"
 
@@ -41,7 +41,7 @@ constexpr double kFeatureRadius = 5.0;        // FPFH radius, voxels (Open3D's u
 constexpr double kInlierDistance = 1.5;       // inlier / distance-checker threshold, voxels
 constexpr double kEdgeRatio = 0.9;            // Open3D's CorrespondenceCheckerBasedOnEdgeLength
 constexpr double kDistinctTranslation = 2.0;  // voxels (global.hpp)
-constexpr int kNormalNeighbours = 20;
+constexpr int kFpfhNormalNeighbours = 20;
 constexpr double kSupportRadius = 2.0;  // isolated-point filter: radius in spacings (voxels) ...
 constexpr std::size_t kMinSupport = 3;  // ... and the fewest other points it must hold
 constexpr std::size_t kBlock = 4096;    // hypotheses per parallel block: few, cheap regions
@@ -68,11 +68,7 @@ class HypothesisStream {
   std::uint64_t state_;
 };
 
-std::string fixed(double value, int digits = 2) {
-  char buffer[64];
-  std::snprintf(buffer, sizeof buffer, "%.*f", digits, value);
-  return buffer;
-}
+using detail::fixed;
 
 // Drops points with fewer than kMinSupport others within kSupportRadius spacings (the spacing: the
 // voxel, or the median neighbour distance when the data are sparser). Downsampling keeps an
@@ -112,7 +108,7 @@ std::shared_ptr<const FpfhCloud> prepare_fpfh(const PointCloud& cloud, double vo
   }
   out.tree = std::make_unique<KdTree>(out.down.positions, threads);
   NormalSettings ns;
-  ns.k = kNormalNeighbours;
+  ns.k = kFpfhNormalNeighbours;
   ns.threads = threads;
   estimate_normals(out.down, *out.tree, ns);
   const FpfhSettings fs{kFeatureRadius * voxel};
@@ -157,7 +153,7 @@ class FeatureIndex {
 };
 
 // Paired positions, source (p) and target (q), stored contiguously for the inlier count.
-struct Correspondences {
+struct FeatureMatches {
   std::vector<Eigen::Vector3d> p, q;
   std::size_t size() const { return p.size(); }
 };
@@ -166,8 +162,8 @@ struct Correspondences {
 // the other cloud. Matching from the object keeps the correspondences about as many as the
 // object's points and their inlier share about its visible share; matched the other way, a wide
 // scene's thousands of clutter points would bury the few that lie on the object.
-Correspondences match(const FpfhCloud& source, const FpfhCloud& target, Role object, bool mutual,
-                      int threads) {
+FeatureMatches match(const FpfhCloud& source, const FpfhCloud& target, Role object, bool mutual,
+                     int threads) {
   const FpfhCloud& from = object == Role::kSource ? source : target;
   const FpfhCloud& to = object == Role::kSource ? target : source;
   const FeatureIndex to_index(to.features);
@@ -181,7 +177,7 @@ Correspondences match(const FpfhCloud& source, const FpfhCloud& target, Role obj
     parallel_for(backward.size(), threads,
                  [&](std::size_t j) { backward[j] = from_index.nearest(to.features[j]); });
   }
-  Correspondences c;
+  FeatureMatches c;
   for (std::size_t i = 0; i < forward.size(); ++i) {
     if (mutual && backward[forward[i]] != i) continue;
     const Eigen::Vector3d& a = from.down.positions[i];
@@ -192,7 +188,7 @@ Correspondences match(const FpfhCloud& source, const FpfhCloud& target, Role obj
   return c;
 }
 
-std::size_t count_inliers(const Correspondences& c, const Eigen::Isometry3d& T, double sq_radius) {
+std::size_t count_inliers(const FeatureMatches& c, const Eigen::Isometry3d& T, double sq_radius) {
   const Eigen::Matrix3d R = T.linear();
   const Eigen::Vector3d t = T.translation();
   std::size_t n = 0;
@@ -202,7 +198,7 @@ std::size_t count_inliers(const Correspondences& c, const Eigen::Isometry3d& T, 
 }
 
 // Inliers of `T` that are not inliers of `other`.
-std::size_t count_exclusive(const Correspondences& c, const Eigen::Isometry3d& T,
+std::size_t count_exclusive(const FeatureMatches& c, const Eigen::Isometry3d& T,
                             const Eigen::Isometry3d& other, double sq_radius) {
   std::size_t n = 0;
   for (std::size_t i = 0; i < c.size(); ++i)
@@ -212,8 +208,8 @@ std::size_t count_exclusive(const Correspondences& c, const Eigen::Isometry3d& T
 }
 
 // Kabsch on the pairs within the radius, centred for conditioning (kabsch.hpp).
-Eigen::Isometry3d fit_inliers(const Correspondences& c, const Eigen::Isometry3d& T,
-                              double sq_radius, std::size_t& used) {
+Eigen::Isometry3d fit_inliers(const FeatureMatches& c, const Eigen::Isometry3d& T, double sq_radius,
+                              std::size_t& used) {
   std::vector<Eigen::Vector3d> p, q;
   for (std::size_t i = 0; i < c.size(); ++i) {
     if ((T * c.p[i] - c.q[i]).squaredNorm() < sq_radius) {
@@ -237,7 +233,7 @@ bool better(const Pose& a, const Pose& b) {
 }
 
 // Re-estimates T on its inliers while that does not lose support (step 6).
-Pose refine(const Correspondences& c, Pose pose, double sq_radius) {
+Pose refine(const FeatureMatches& c, Pose pose, double sq_radius) {
   for (int round = 0; round < kRefineRounds; ++round) {
     std::size_t used = 0;
     const Eigen::Isometry3d T = fit_inliers(c, pose.T, sq_radius, used);
@@ -252,7 +248,7 @@ Pose refine(const Correspondences& c, Pose pose, double sq_radius) {
 
 // One hypothesis: a 3-sample with the edge-length check, Kabsch, the distance check, the count.
 // Returns false when a checker rejects it.
-bool evaluate(const Correspondences& c, std::uint64_t seed, std::uint64_t k, double voxel,
+bool evaluate(const FeatureMatches& c, std::uint64_t seed, std::uint64_t k, double voxel,
               double sq_radius, Pose& out) {
   HypothesisStream rng(seed, k);
   const std::size_t n = c.size();
@@ -314,7 +310,7 @@ void remember(std::vector<Pose>& poses, const Pose& pose, const Distinct& distin
 // Step 5: RANSAC in blocks; the confidence bound k = log(1 − conf) / log(1 − w³) is checked
 // between blocks, w the best inlier share so far. Returns the best pose of each distinct region
 // (remember), counts the accepted hypotheses in `candidates` and the drawn ones in `drawn`.
-std::vector<Pose> ransac(const Correspondences& corr, const GlobalSettings& settings, double voxel,
+std::vector<Pose> ransac(const FeatureMatches& corr, const GlobalSettings& settings, double voxel,
                          const Distinct& distinct, std::size_t& candidates, std::uint64_t& drawn) {
   const double sq_radius = sq_inlier_radius(voxel);
   const auto max_iterations = static_cast<std::uint64_t>(std::max(0, settings.ransac_iterations));
@@ -360,7 +356,7 @@ void check_sizes(const PointCloud& source, const PointCloud& target) {
 // and a pose that slides one face onto another gathers as many inliers as the truth), the fit
 // does not. The overlap is a share of the object's points (global.hpp): the source's on the
 // target's surface, or the target's on the moved source's.
-void refine_and_rank(std::vector<Pose>& poses, const Correspondences& corr, const FpfhCloud& src,
+void refine_and_rank(std::vector<Pose>& poses, const FeatureMatches& corr, const FpfhCloud& src,
                      const FpfhCloud& tgt, Role object, double voxel, int threads) {
   const double sq_radius = sq_inlier_radius(voxel);
   for (Pose& pose : poses) {
@@ -396,7 +392,7 @@ void judge_success(const Pose& best, const GlobalSettings& settings, GlobalResul
 // support); overlap alone cannot tell a twin from a pose that lays only the dominant plane, and
 // raw inlier counts split unevenly between twins (a descriptor matches one of the symmetric
 // copies at random).
-void note_ambiguity(const std::vector<Pose>& poses, const Correspondences& corr,
+void note_ambiguity(const std::vector<Pose>& poses, const FeatureMatches& corr,
                     const Distinct& distinct, double voxel, const GlobalSettings& settings,
                     GlobalResult& result) {
   const Pose& best = poses.front();
@@ -443,7 +439,7 @@ GlobalResult fpfh_ransac_register(const PointCloud& source, const PointCloud& ta
                                             : prepare_fpfh(target, voxel, "target", threads);
   const FpfhCloud &src = *src_ptr, &tgt = *tgt_ptr;
   // Step 4: descriptor nearest neighbours.
-  const Correspondences corr = match(src, tgt, result.object, settings.mutual_filter, threads);
+  const FeatureMatches corr = match(src, tgt, result.object, settings.mutual_filter, threads);
 
   const Distinct distinct{deg_to_rad(settings.distinct_rotation_deg),
                           (kDistinctTranslation * voxel) * (kDistinctTranslation * voxel),

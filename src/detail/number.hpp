@@ -1,12 +1,15 @@
 // Number parsing shared by the file readers and the command line: locale-independent (fast_float,
 // correctly rounded; std::stod and strtod follow LC_NUMERIC, so "1.5" fails under a German locale)
-// and strict about the whole text.
+// and strict about the whole text. Also the short forms of numbers in the pipelines' messages and
+// warnings (number, fixed).
 #pragma once
 
 #include <fast_float/fast_float.h>
 
 #include <cmath>
+#include <cstdio>
 #include <optional>
+#include <string>
 #include <string_view>
 #include <system_error>
 
@@ -34,6 +37,20 @@ inline std::optional<double> parse_finite(std::string_view text) {
   double value = 0.0;
   if (!parse_number(text, value) || !std::isfinite(value)) return std::nullopt;
   return value;
+}
+
+// `value` to `significant_digits` digits, for a message (printf's %g: "0.0123", "1.5e+03").
+inline std::string number(double value, int significant_digits = 3) {
+  char buffer[64];
+  std::snprintf(buffer, sizeof buffer, "%.*g", significant_digits, value);
+  return buffer;
+}
+
+// `value` with `decimals` digits after the point, for a message (printf's %f: "12.50").
+inline std::string fixed(double value, int decimals = 2) {
+  char buffer[64];
+  std::snprintf(buffer, sizeof buffer, "%.*f", decimals, value);
+  return buffer;
 }
 
 }  // namespace align3d::detail

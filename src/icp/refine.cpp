@@ -275,7 +275,7 @@ RefineResult refine(const PointCloud& given_source, RefineTarget& target,
   return out;
 }
 
-void set_kernel(RefineSettings& settings, std::string_view name, double scale) {
+void set_kernel(CostSettings& settings, std::string_view name, double scale) {
   if (!std::isfinite(scale) || scale < 0)
     throw std::invalid_argument("kernel scale: expected a finite number >= 0");
   if (name == "auto") {

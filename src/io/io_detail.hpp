@@ -56,6 +56,20 @@ void check_line_length(const std::filesystem::path& path, std::string_view line,
 // misread as text cannot garble the message.
 std::string quoted(std::string_view token);
 
+// "line <number>: ", the start of an error message about one line of a text file.
+inline std::string line_prefix(std::size_t number) {
+  return "line " + std::to_string(number) + ": ";
+}
+
+// The extension of `path` in lower case (".PLY" gives ".ply"), by which a reader is chosen.
+inline std::string lower_extension(const std::filesystem::path& path) {
+  std::string ext = path.extension().string();
+  for (char& c : ext) {
+    if (c >= 'A' && c <= 'Z') c = static_cast<char>(c - 'A' + 'a');
+  }
+  return ext;
+}
+
 inline bool is_space(char c) {
   return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f';
 }

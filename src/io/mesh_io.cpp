@@ -155,13 +155,7 @@ TriangleMesh MeshBuilder::finish() {
 
 namespace {
 
-std::string lower_extension(const std::filesystem::path& path) {
-  std::string ext = path.extension().string();
-  for (char& c : ext) {
-    if (c >= 'A' && c <= 'Z') c = static_cast<char>(c - 'A' + 'a');
-  }
-  return ext;
-}
+using detail::lower_extension;
 
 std::string shown_extension(const std::filesystem::path& path) {
   const std::string ext = lower_extension(path);

@@ -19,10 +19,9 @@ namespace {
 using detail::BlockReader;
 using detail::FaceLocation;
 using detail::fail;
+using detail::line_prefix;
 using detail::MeshBuilder;
 using detail::quoted;
-
-std::string line_prefix(std::size_t number) { return "line " + std::to_string(number) + ": "; }
 
 // A statement continued with trailing backslashes, joined into `joined` (separated by a space).
 std::string_view join_continued(detail::LineReader& lines, std::string_view line,

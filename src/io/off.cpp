@@ -15,10 +15,9 @@ namespace align3d::io {
 namespace {
 
 using detail::fail;
+using detail::line_prefix;
 using detail::LineReader;
 using detail::quoted;
-
-std::string line_prefix(std::size_t number) { return "line " + std::to_string(number) + ": "; }
 
 // The next line that holds data, its comment cut off; false at the end of the file.
 bool next_data(LineReader& lines, std::string_view& line) {
@@ -52,7 +51,7 @@ struct OffCounts {
   std::size_t line = 0;  // where they were read
 };
 
-OffCounts parse_header(LineReader& lines) {
+OffCounts parse_off_header(LineReader& lines) {
   const std::filesystem::path& path = lines.input().path();
   std::string_view line;
   if (!next_data(lines, line)) fail(path, "not an OFF file (it holds no header)");
@@ -161,7 +160,7 @@ namespace detail {
 TriangleMesh read_off(BlockReader& in, MeshReadInfo& info) {
   const std::filesystem::path& path = in.path();
   LineReader lines(in);
-  const OffCounts counts = parse_header(lines);
+  const OffCounts counts = parse_off_header(lines);
   // A vertex line takes 6 bytes at least ("0 0 0\n"), a face line 2 ("0\n"); the last line may lack
   // its newline, hence the + 1.
   const std::uint64_t left = in.remaining() + 1;

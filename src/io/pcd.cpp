@@ -205,7 +205,7 @@ void make_fields(const std::filesystem::path& path, const HeaderText& text, PcdH
   }
 }
 
-PcdHeader parse_header(detail::LineReader& lines) {
+PcdHeader parse_pcd_header(detail::LineReader& lines) {
   const std::filesystem::path& path = lines.input().path();
   const HeaderText text = read_header_text(lines);
   PcdHeader header;
@@ -437,7 +437,7 @@ namespace detail {
 
 PointCloud read_pcd(BlockReader& in, ReadInfo& info) {
   LineReader lines(in);
-  const PcdHeader header = parse_header(lines);
+  const PcdHeader header = parse_pcd_header(lines);
   const FieldIndex layout = field_index(in.path(), header);
   CloudBuilder builder(in.path(), layout.normals);
   if (header.height > 1) builder.keep_indices();

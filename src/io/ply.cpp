@@ -113,7 +113,7 @@ PlyProperty parse_property(const std::filesystem::path& path, const std::string&
   return property;
 }
 
-PlyHeader parse_header(detail::LineReader& lines) {
+PlyHeader parse_ply_header(detail::LineReader& lines) {
   const std::filesystem::path& path = lines.input().path();
   if (lines.input().peek(3).substr(0, 3) != "ply") {
     fail(path, "not a PLY file (it does not start with 'ply')");
@@ -668,7 +668,7 @@ namespace detail {
 
 PointCloud read_ply(BlockReader& in, ReadInfo& info) {
   LineReader lines(in);
-  const PlyHeader header = parse_header(lines);
+  const PlyHeader header = parse_ply_header(lines);
   const BodyPlan plan = plan_body(in.path(), header, false);
   CloudBuilder builder(in.path(), plan.layout.normals);
   CloudSink sink(builder, plan.layout.normals);
@@ -682,7 +682,7 @@ PointCloud read_ply(BlockReader& in, ReadInfo& info) {
 
 TriangleMesh read_ply_mesh(BlockReader& in, MeshReadInfo& info) {
   LineReader lines(in);
-  const PlyHeader header = parse_header(lines);
+  const PlyHeader header = parse_ply_header(lines);
   const BodyPlan plan = plan_body(in.path(), header, true);
   const bool ascii = header.format == PlyFormat::kAscii;
   MeshBuilder builder(in.path(), [ascii](const FaceLocation& where) {
@@ -700,7 +700,7 @@ TriangleMesh read_ply_mesh(BlockReader& in, MeshReadInfo& info) {
 
 bool ply_declares_faces(BlockReader& in) {
   LineReader lines(in);
-  const PlyHeader header = parse_header(lines);
+  const PlyHeader header = parse_ply_header(lines);
   const std::size_t face = find_element(header, "face");
   return face != kNone && header.elements[face].count > 0 &&
          find_corner_list(header.elements[face]) != kNone;

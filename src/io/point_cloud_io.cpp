@@ -96,13 +96,7 @@ PointCloud CloudBuilder::finish() {
 
 namespace {
 
-std::string lower_extension(const std::filesystem::path& path) {
-  std::string ext = path.extension().string();
-  for (char& c : ext) {
-    if (c >= 'A' && c <= 'Z') c = static_cast<char>(c - 'A' + 'a');
-  }
-  return ext;
-}
+using detail::lower_extension;
 
 std::string unknown_format_problem(const std::string& ext) {
   return "unknown point cloud format " +

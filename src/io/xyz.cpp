@@ -12,11 +12,13 @@ namespace {
 
 // No point row is anywhere near this long; a longer line means a binary file or a missing newline,
 // and refusing it keeps errors readable.
-constexpr std::size_t kMaxLineBytes = std::size_t{64} << 10;
+constexpr std::size_t kMaxXyzLineBytes = std::size_t{64} << 10;
 
 // Runs of separators count as one, so "1, 2, 3" and "1\t2\t3" read alike (an empty CSV field
 // therefore does not shift the columns; such files are rare for point lists).
-constexpr auto is_separator = [](char c) { return detail::is_space(c) || c == ',' || c == ';'; };
+constexpr auto is_xyz_separator = [](char c) {
+  return detail::is_space(c) || c == ',' || c == ';';
+};
 
 using detail::BlockReader;
 
@@ -49,8 +51,8 @@ PointCloud read_xyz(BlockReader& in, ReadInfo& info) {
   LineReader lines(in);
   std::string_view line;
   bool seen_row = false;
-  while (lines.next(line, kMaxLineBytes)) {
-    check_line_length(path, line, lines.number(), kMaxLineBytes);
+  while (lines.next(line, kMaxXyzLineBytes)) {
+    check_line_length(path, line, lines.number(), kMaxXyzLineBytes);
     const auto first = line.find_first_not_of(" \t\r\v\f");
     if (first == std::string_view::npos || line[first] == '#') continue;
     std::array<double, 3> xyz{};
@@ -58,7 +60,7 @@ PointCloud read_xyz(BlockReader& in, ReadInfo& info) {
     std::size_t found = 0;
     bool header = false;
     for (; found < 3; ++found) {
-      const auto token = next_number(line, pos, is_separator, xyz[found]);
+      const auto token = next_number(line, pos, is_xyz_separator, xyz[found]);
       if (token == Token::kEnd) break;
       if (token == Token::kNumber) continue;
       // Column names ("x,y,z") are common in CSV exports; elsewhere a word is an error.
@@ -67,7 +69,7 @@ PointCloud read_xyz(BlockReader& in, ReadInfo& info) {
         break;
       }
       fail(path, "line " + std::to_string(lines.number()) + ": bad number " +
-                     quoted(next_token(line, pos, is_separator)));
+                     quoted(next_token(line, pos, is_xyz_separator)));
     }
     seen_row = true;
     if (header) continue;

@@ -8,6 +8,8 @@
 #include <cairo.h>
 
 #include <algorithm>
+#include <cmath>
+#include <cstdint>
 #include <filesystem>
 #include <functional>
 #include <limits>
@@ -72,6 +74,10 @@ void draw_vertical_text(cairo_t* cr, const std::string& s, double x, double y);
 // Colours and lines
 
 double clamp01(double v);  // NaN as 0
+// A colour component in [0, 1] as a byte, rounded (clamped to [0, 1] first).
+inline std::uint8_t to_byte(double c) {
+  return static_cast<std::uint8_t>(std::lround(255 * std::clamp(c, 0.0, 1.0)));
+}
 // Crisp 1-pixel lines: put coordinates on pixel centres.
 double snap(double v);
 void set_color(cairo_t* cr, const Rgb& c, double alpha);  // components and alpha clamped to [0, 1]

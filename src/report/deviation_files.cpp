@@ -8,13 +8,12 @@
 #include "align3d/io/ply_attributes.hpp"
 #include "align3d/report/colormap.hpp"
 #include "align3d/report/inspection_page.hpp"
+#include "canvas.hpp"
 
 namespace align3d::report {
 namespace {
 
-std::uint8_t to_byte(double c) {
-  return static_cast<std::uint8_t>(std::lround(255 * std::clamp(c, 0.0, 1.0)));
-}
+using detail::to_byte;
 
 // %.9g into `out`; empty for NaN.
 void append(std::string& out, double v) {

@@ -202,9 +202,7 @@ bool on_outline(const RangeImage& image, const std::vector<std::size_t>& ranks, 
   return false;
 }
 
-std::uint8_t to_byte(double c) {
-  return static_cast<std::uint8_t>(std::lround(255 * std::clamp(c, 0.0, 1.0)));
-}
+using detail::to_byte;
 
 // The depth in grey and the masks, pixel by pixel, straight into the surface's ARGB32 words.
 void paint_pixels(cairo_surface_t* surface, const RangeImage& image,

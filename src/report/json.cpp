@@ -77,6 +77,13 @@ nlohmann::json stitch_edge_json(const StitchEdge& e, const std::vector<InputInfo
           {"warnings", to_json(e.warnings)}};
 }
 
+// The ICP cost a command was given (refine.hpp, CostSettings).
+nlohmann::json cost_json(const CostSettings& c) {
+  return {{"method", to_string(c.method)},
+          {"kernel", kernel_name(c)},
+          {"kernel_scale", c.kernel_scale}};
+}
+
 nlohmann::json stitch_settings_json(const StitchSettings& s) {
   nlohmann::json viewpoints = nlohmann::json::array();
   for (const Eigen::Vector3d& v : s.viewpoints) viewpoints.push_back(to_json(v));
@@ -87,7 +94,8 @@ nlohmann::json stitch_settings_json(const StitchSettings& s) {
           {"voxel", s.voxel},
           {"viewpoints", viewpoints},
           {"seed", s.seed},
-          {"threads", s.threads}};
+          {"threads", s.threads},
+          {"icp", cost_json(s.cost)}};
 }
 
 // A mesh's points are its vertices; its triangles are listed too.
@@ -267,7 +275,8 @@ nlohmann::json find_report(const FindResult& r, const FindSettings& s, const Inp
             {"remove_plane", s.remove_plane},
             {"min_depth", s.min_depth},
             {"max_depth", s.max_depth},
-            {"seed", s.seed}}},
+            {"seed", s.seed},
+            {"icp", cost_json(s.cost)}}},
           {"warnings", to_json(r.warnings)},
           {"timing_ms",
            {{"prepare", r.prepare_ms},

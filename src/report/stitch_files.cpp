@@ -17,8 +17,6 @@
 namespace align3d::report {
 namespace {
 
-std::string esc(const std::string& s) { return html_escape(s); }
-
 // Four significant digits, a typographic minus; NaN (nothing measured) as "–".
 std::string num(double v, const char* format = "%.4g") {
   if (std::isnan(v)) return "\u2013";
@@ -29,7 +27,7 @@ std::string num(double v, const char* format = "%.4g") {
   return s;
 }
 
-std::string percent(double share) { return num(100 * share, "%.1f") + "\u2009%"; }
+std::string rounded_percent(double share) { return num(100 * share, "%.1f") + "\u2009%"; }
 
 std::string file_of(const StitchPageInfo& info, std::size_t k) {
   return k < info.files.size() && !info.files[k].empty() ? info.files[k]
@@ -37,12 +35,12 @@ std::string file_of(const StitchPageInfo& info, std::size_t k) {
 }
 
 std::string cell(const std::string& text, bool number = false) {
-  return (number ? "<td class=n>" : "<td>") + esc(text) + "</td>";
+  return (number ? "<td class=n>" : "<td>") + html_escape(text) + "</td>";
 }
 
 std::string header(std::initializer_list<const char*> names) {
   std::string out = "<tr>";
-  for (const char* n : names) out += "<th>" + esc(n) + "</th>";
+  for (const char* n : names) out += "<th>" + html_escape(n) + "</th>";
   return out + "</tr>\n";
 }
 
@@ -52,10 +50,11 @@ std::string summary_html(const StitchResult& r, const StitchPageInfo& info) {
   for (const StitchEdge& e : r.edges) kept += e.kept ? 1 : 0;
   const std::string u = info.units.empty() ? "" : " " + info.units;
   return "<p>" + format_count(r.scans.size()) + " scans into the frame of the first, <b>" +
-         esc(file_of(info, 0)) + "</b>: " + format_count(connected) + " connected, " +
+         html_escape(file_of(info, 0)) + "</b>: " + format_count(connected) + " connected, " +
          format_count(r.edges.size()) + " overlapping pairs found, " + format_count(kept) +
          " kept. The merged cloud holds " + format_count(r.merged.size()) + " points (voxel " +
-         num(r.voxel) + esc(u) + "); the object's diameter is " + num(r.diameter) + esc(u) +
+         num(r.voxel) + html_escape(u) + "); the object's diameter is " + num(r.diameter) +
+         html_escape(u) +
          ". Each pose maps its scan into the first scan's frame (scan\u2080 \u2248 T\u00b7scan); "
          "an "
          "edge's maps its source scan into its target's frame (target \u2248 T\u00b7source).</p>\n";
@@ -89,8 +88,8 @@ std::string edges_html(const StitchResult& r) {
     std::string warnings;
     for (const Warning& w : e.warnings) warnings += (warnings.empty() ? "" : ", ") + w.code;
     t += "<tr>" + cell(std::to_string(e.source), true) + cell(std::to_string(e.target), true) +
-         cell(percent(e.overlap), true) + cell(num(e.rms), true) + "<td" +
-         (e.kept ? ">kept" : " class=warn>" + esc(e.status)) + "</td>" +
+         cell(rounded_percent(e.overlap), true) + cell(num(e.rms), true) + "<td" +
+         (e.kept ? ">kept" : " class=warn>" + html_escape(e.status)) + "</td>" +
          cell(num(e.rotation_residual_deg, "%.3f"), true) +
          cell(num(e.translation_residual), true) + cell(warnings) + "</tr>\n";
   }
@@ -104,8 +103,8 @@ std::string timings_html(const StitchResult& r) {
       {"multi-view ICP", t.multiview_ms}, {"merge", t.merge_ms},       {"total", t.total_ms}};
   std::string out = "<h2>Timings</h2>\n<table>\n";
   for (const auto& [name, ms] : rows)
-    out += "<tr><th scope=row style=\"text-align:left;font-weight:normal\">" + esc(name) + "</th>" +
-           cell(num(ms, "%.0f") + " ms", true) + "</tr>\n";
+    out += "<tr><th scope=row style=\"text-align:left;font-weight:normal\">" + html_escape(name) +
+           "</th>" + cell(num(ms, "%.0f") + " ms", true) + "</tr>\n";
   return out + "</table>\n<p>Multi-view ICP iterations: " + std::to_string(r.multiview_iterations) +
          ".</p>\n";
 }
@@ -135,7 +134,8 @@ void write_stitch_page(const std::filesystem::path& page, const StitchResult& r,
                        const StitchPageInfo& info) {
   const std::string png = stitch_figure_png(r, figure_settings(info));
   const std::string body =
-      "<h1>" + esc(info.title) + "</h1>\n" + summary_html(r, info) + html_warnings(r.warnings) +
+      "<h1>" + html_escape(info.title) + "</h1>\n" + summary_html(r, info) +
+      html_warnings(r.warnings) +
       html_figure_png(png, "stitch",
                       "The merged cloud from above (looking down \u2212z) and from the front "
                       "(looking along +y), at one scale, each point in the colour of the scan it "

@@ -34,14 +34,36 @@ struct Pass {
   const MultiviewSettings& settings;
   bool collect;
 
-  // r = n·(x_a − x_b) in node 0's frame; left updates about `centre`: x ← x + ω × (x − c) + v for
-  // each pose, the normal n = R_b·n_b turning with b.
+  static void add_pair(LinkSums& acc, const MultiviewPairTerms& t, double w) {
+    if (t.rows == 1) {
+      accumulate<1>(acc, t.ja.topRows<1>(), t.jb.topRows<1>(), t.e.head<1>(),
+                    Eigen::Matrix<double, 1, 1>::Identity(), w);
+    } else {
+      accumulate<3>(acc, t.ja, t.jb, t.e, t.M, w);
+    }
+  }
+
+  template <int R>
+  static void accumulate(LinkSums& acc, const Eigen::Matrix<double, R, 6>& ja,
+                         const Eigen::Matrix<double, R, 6>& jb,
+                         const Eigen::Matrix<double, R, 1>& e, const Eigen::Matrix<double, R, R>& M,
+                         double w) {
+    const Eigen::Matrix<double, 6, R> ja_m = w * ja.transpose() * M;
+    const Eigen::Matrix<double, 6, R> jb_m = w * jb.transpose() * M;
+    acc.aa.noalias() += ja_m * ja;
+    acc.ab.noalias() += ja_m * jb;
+    acc.bb.noalias() += jb_m * jb;
+    acc.ga.noalias() += ja_m * e;
+    acc.gb.noalias() += jb_m * e;
+  }
+
   LinkSums link(std::size_t a, std::size_t b) const {
     const MultiviewScan& sa = scans[a];
     const MultiviewScan& sb = scans[b];
     const Eigen::Isometry3d a_in_b = poses[b].inverse() * poses[a];
     const double sq_max = settings.max_distance * settings.max_distance;
-    const double scale = settings.max_distance / 2;
+    const double scale =
+        settings.kernel_scale > 0 ? settings.kernel_scale : settings.max_distance / 2;
     return parallel_reduce(
         sa.sample.size(), settings.threads, LinkSums{},
         [&](LinkSums& acc, std::size_t i) {
@@ -50,26 +72,56 @@ struct Pass {
           if (!sb.tree->nearest(a_in_b * p, nb, sq_max)) return;
           const Eigen::Vector3d xa = poses[a] * p;
           const Eigen::Vector3d xb = poses[b] * sb.cloud->positions[nb.index];
+          const Eigen::Vector3d na = poses[a].linear() * sa.cloud->normals[sa.sample[i]];
           const Eigen::Vector3d n = poses[b].linear() * sb.cloud->normals[nb.index];
           // Both scans see the surface from outside, their normals towards their sensors: a
           // partner whose normal turns away lies on another face (across an edge, the far side
           // of a thin wall), which the other scan may not see at all.
-          if (n.dot(poses[a].linear() * sa.cloud->normals[sa.sample[i]]) < kMinNormalCosine) return;
+          if (n.dot(na) < kMinNormalCosine) return;
           const double r = n.dot(xa - xb);
           if (collect) acc.distances.push_back(std::abs(r));
-          const double w = kernel_weight(RobustKernel::kGemanMcClure, r, scale);
-          Vector6d ja, jb;
-          ja << (xa - centre).cross(n), n;
-          jb << n.cross(xa - xb) - (xb - centre).cross(n), -n;
-          acc.aa.noalias() += w * ja * ja.transpose();
-          acc.ab.noalias() += w * ja * jb.transpose();
-          acc.bb.noalias() += w * jb * jb.transpose();
-          acc.ga += w * r * ja;
-          acc.gb += w * r * jb;
+          add_pair(acc, multiview_pair_terms(settings.method, xa, xb, na, n, centre),
+                   kernel_weight(settings.kernel, r, scale));
         },
         [](LinkSums& x, const LinkSums& y) { x += y; });
   }
 };
+
+}  // namespace
+
+MultiviewPairTerms multiview_pair_terms(IcpMethod method, const Eigen::Vector3d& xa,
+                                        const Eigen::Vector3d& xb, const Eigen::Vector3d& na,
+                                        const Eigen::Vector3d& nb, const Eigen::Vector3d& centre) {
+  MultiviewPairTerms t;
+  const Eigen::Vector3d d = xa - xb;
+  switch (method) {
+    case IcpMethod::kPointToPlane:  // r = n_b·(x_a − x_b)
+      t.rows = 1;
+      t.e(0) = nb.dot(d);
+      t.ja.row(0) << (xa - centre).cross(nb).transpose(), nb.transpose();
+      t.jb.row(0) << (nb.cross(d) - (xb - centre).cross(nb)).transpose(), -nb.transpose();
+      break;
+    case IcpMethod::kSymmetric: {  // r = (n_a + n_b)·(x_a − x_b), both normals turning
+      const Eigen::Vector3d n = na + nb;
+      t.rows = 1;
+      t.e(0) = n.dot(d);
+      t.ja.row(0) << ((xa - centre).cross(n) + na.cross(d)).transpose(), n.transpose();
+      t.jb.row(0) << (nb.cross(d) - (xb - centre).cross(n)).transpose(), -n.transpose();
+      break;
+    }
+    case IcpMethod::kPointToPoint:
+    case IcpMethod::kGicp:  // e = x_a − x_b weighed by M (I, or GICP's, held over the step)
+      t.rows = 3;
+      t.e = d;
+      t.ja << -skew(xa - centre), Eigen::Matrix3d::Identity();
+      t.jb << skew(xb - centre), -Eigen::Matrix3d::Identity();
+      t.M = method == IcpMethod::kGicp ? GicpFactor::weight(na, nb) : Eigen::Matrix3d::Identity();
+      break;
+  }
+  return t;
+}
+
+namespace {
 
 // x ← exp(ω)·(x − c) + c + v.
 Eigen::Isometry3d update_about(const Vector6d& xi, const Eigen::Vector3d& c) {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numbers>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -16,7 +17,6 @@
 namespace align3d::synth {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 constexpr double kStandoff = 1000;          // mm from the raster plane to the part
 constexpr std::size_t kPilotRays = 200000;  // rays of the pass that measures the hit rate
 constexpr double kMaxRays = 2147483647.0;   // per view: ray numbers fit the noise key's 31 bits
@@ -26,7 +26,7 @@ void require(bool ok, const std::string& what) {
 }
 
 // The fixture as one mesh: 12 outward-wound triangles per box.
-TriangleMesh box_mesh(const std::vector<FixtureBox>& boxes) {
+TriangleMesh fixture_mesh(const std::vector<FixtureBox>& boxes) {
   static constexpr int kQuads[6][4] = {{0, 4, 6, 2}, {1, 3, 7, 5}, {0, 1, 5, 4}, {2, 6, 7, 3},
                                        {0, 2, 3, 1}, {4, 5, 7, 6}};  // −x +x −y +y −z +z
   TriangleMesh mesh;
@@ -56,7 +56,7 @@ void check_defects(const PartModel& part, const std::vector<SurfaceDefect>& defe
     const Eigen::Vector3d t1 = n.unitOrthogonal(), t2 = n.cross(t1);
     for (double ring : {0.0, 0.5, 1.0})
       for (int a = 0; a < 16; ++a) {
-        const double angle = 2 * kPi * a / 16;
+        const double angle = 2 * std::numbers::pi * a / 16;
         const Eigen::Vector3d p =
             d.centre + ring * d.radius * (std::cos(angle) * t1 + std::sin(angle) * t2);
         require(part.contains(p - 1e-3 * n) && !part.contains(p + 1e-3 * n),
@@ -133,7 +133,7 @@ double ray_noise(std::uint64_t seed, std::uint64_t view, std::uint64_t ray) {
   const std::uint64_t a = splitmix64(splitmix64(seed) ^ (view << 40) ^ ray), b = splitmix64(a);
   const double u1 = 1.0 - static_cast<double>(a >> 11) * 0x1.0p-53;  // (0, 1]
   const double u2 = static_cast<double>(b >> 11) * 0x1.0p-53;
-  return std::sqrt(-2.0 * std::log(u1)) * std::cos(2 * kPi * u2);
+  return std::sqrt(-2.0 * std::log(u1)) * std::cos(2 * std::numbers::pi * u2);
 }
 
 struct RawPoint {
@@ -149,8 +149,8 @@ class Scanner {
       : s_(s),
         part_(PartModel(s.part).mesh(), s.threads, "part"),
         framed_(framed_points(s, part_.mesh())),
-        cos_max_(std::cos(s.max_incidence_deg * kPi / 180)) {
-    if (!s.fixture.empty()) fixture_.emplace(box_mesh(s.fixture), s.threads, "fixture");
+        cos_max_(std::cos(s.max_incidence_deg * std::numbers::pi / 180)) {
+    if (!s.fixture.empty()) fixture_.emplace(fixture_mesh(s.fixture), s.threads, "fixture");
   }
 
   ScanRaster raster(std::size_t view, double pitch) const {
@@ -239,7 +239,7 @@ double pitch_for(const Scanner& scanner, const AsBuiltSettings& s, std::size_t t
 
 double true_deviation(const AsBuiltSettings& s, const Eigen::Vector3d& x,
                       const Eigen::Vector3d& n) {
-  const double k = 2 * kPi / s.warp_wavelength;
+  const double k = 2 * std::numbers::pi / s.warp_wavelength;
   double delta = s.warp_amplitude * std::sin(k * x.x() + 0.3) * std::sin(k * x.y() + 1.1) *
                  std::cos(k * x.z());
   for (const SurfaceDefect& d : s.defects) {
@@ -248,7 +248,7 @@ double true_deviation(const AsBuiltSettings& s, const Eigen::Vector3d& x,
     if (n.dot(dn) < 1 - 1e-9 || std::abs(height) > 1e-6) continue;  // another face
     const double rho = (r - height * dn).norm();
     if (rho >= d.radius) continue;
-    const double c = std::cos(kPi * rho / (2 * d.radius));
+    const double c = std::cos(std::numbers::pi * rho / (2 * d.radius));
     delta += d.peak * c * c;
   }
   return delta;

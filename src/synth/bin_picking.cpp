@@ -17,7 +17,6 @@
 namespace align3d::synth {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
 constexpr int kMaxInstances = 12;
 constexpr int kPlacementTries = 50;
 constexpr std::size_t kCollisionSamples = 4000;  // surface samples per object for the drop test
@@ -266,7 +265,7 @@ TriangleMesh revolve(const std::vector<Eigen::Vector2d>& profile, int segments) 
   const auto m_seg = static_cast<std::uint32_t>(segments);
   TriangleMesh m;
   for (std::uint32_t k = 0; k < m_seg; ++k) {
-    const double phi = 2 * kPi * k / segments;
+    const double phi = 2 * std::numbers::pi * k / segments;
     for (const auto& p : profile)
       m.vertices.emplace_back(p.x() * std::cos(phi), p.x() * std::sin(phi), p.y());
   }
@@ -290,7 +289,7 @@ TriangleMesh cylinder_mesh(double radius, double half_height, int segments) {
   TriangleMesh m;
   const auto n = static_cast<std::uint32_t>(segments);
   for (std::uint32_t k = 0; k < n; ++k) {
-    const double phi = 2 * kPi * k / segments;
+    const double phi = 2 * std::numbers::pi * k / segments;
     m.vertices.emplace_back(radius * std::cos(phi), radius * std::sin(phi), -half_height);
     m.vertices.emplace_back(radius * std::cos(phi), radius * std::sin(phi), half_height);
   }
@@ -312,9 +311,9 @@ TriangleMesh sphere_mesh(double radius, int rings) {
   const auto r = static_cast<std::uint32_t>(rings), n = 2 * r;
   m.vertices.emplace_back(0, 0, -radius);
   for (std::uint32_t i = 1; i < r; ++i) {
-    const double theta = kPi * i / rings - kPi / 2;
+    const double theta = std::numbers::pi * i / rings - std::numbers::pi / 2;
     for (std::uint32_t k = 0; k < n; ++k) {
-      const double phi = 2 * kPi * k / n;
+      const double phi = 2 * std::numbers::pi * k / n;
       m.vertices.emplace_back(radius * std::cos(theta) * std::cos(phi),
                               radius * std::cos(theta) * std::sin(phi), radius * std::sin(theta));
     }

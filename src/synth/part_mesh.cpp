@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <numbers>
 #include <stdexcept>
 #include <string>
 #include <unordered_map>
@@ -15,7 +16,6 @@
 namespace align3d::synth {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 constexpr double kMargin = 1;  // mm between features, and from features to the top's edge
 constexpr std::size_t kMaxTriangles = 100'000'000;
 
@@ -258,7 +258,7 @@ bool disk_inside(const Eigen::Vector2d& lo, const Eigen::Vector2d& hi, const Eig
   return (c - d).cwiseMin(lo) == lo && (c + d).cwiseMax(hi) == hi;
 }
 
-void require(bool ok, const std::string& what) {
+void require_part(bool ok, const std::string& what) {
   if (!ok) throw std::invalid_argument("PartSettings: " + what);
 }
 
@@ -292,40 +292,42 @@ const char* to_string(PartFeatureKind kind) {
 
 PartModel::PartModel(const PartSettings& settings) : settings_(settings) {
   const PartSettings& s = settings_;
-  require(s.block.minCoeff() > 0 && s.chamfer > 0 && s.pocket_depth > 0 && s.boss_radius > 0 &&
-              s.boss_height > 0,
-          "sizes must be positive");
-  require(s.circle_segments >= 8 && s.circle_segments <= 65536, "circle_segments: 8 to 65536");
-  require(s.chamfer < s.block.z() && 2 * (s.chamfer + kMargin) < s.block.head<2>().minCoeff(),
-          "the chamfer leaves no flat top");
-  require(s.pocket_depth + kMargin <= s.block.z(), "the pocket is deeper than the block");
+  require_part(s.block.minCoeff() > 0 && s.chamfer > 0 && s.pocket_depth > 0 && s.boss_radius > 0 &&
+                   s.boss_height > 0,
+               "sizes must be positive");
+  require_part(s.circle_segments >= 8 && s.circle_segments <= 65536, "circle_segments: 8 to 65536");
+  require_part(s.chamfer < s.block.z() && 2 * (s.chamfer + kMargin) < s.block.head<2>().minCoeff(),
+               "the chamfer leaves no flat top");
+  require_part(s.pocket_depth + kMargin <= s.block.z(), "the pocket is deeper than the block");
   const Eigen::Vector2d top_hi = s.block.head<2>() / 2 - Eigen::Vector2d::Constant(s.chamfer);
   const Eigen::Vector2d top_lo = -top_hi, m(kMargin, kMargin);
-  require((s.pocket_max - s.pocket_min).minCoeff() > 0, "pocket_min must lie below pocket_max");
-  require((s.pocket_min - m).cwiseMin(top_lo) == top_lo &&
-              (s.pocket_max + m).cwiseMax(top_hi) == top_hi,
-          "the pocket must lie on the flat top");
-  require(
+  require_part((s.pocket_max - s.pocket_min).minCoeff() > 0,
+               "pocket_min must lie below pocket_max");
+  require_part((s.pocket_min - m).cwiseMin(top_lo) == top_lo &&
+                   (s.pocket_max + m).cwiseMax(top_hi) == top_hi,
+               "the pocket must lie on the flat top");
+  require_part(
       disk_inside(top_lo, top_hi, s.boss_centre, s.boss_radius, kMargin) &&
           rectangle_distance(s.pocket_min, s.pocket_max, s.boss_centre) >= s.boss_radius + kMargin,
       "the boss must stand on the flat top, clear of the pocket");
   for (std::size_t i = 0; i < s.holes.size(); ++i) {
     const PartHole& h = s.holes[i];
     const std::string name = "hole " + std::to_string(i) + " ";
-    require(h.radius > 0, name + "radius must be positive");
-    require(disk_inside(s.pocket_min, s.pocket_max, h.centre, h.radius, kMargin) ||
-                (disk_inside(top_lo, top_hi, h.centre, h.radius, kMargin) &&
-                 rectangle_distance(s.pocket_min, s.pocket_max, h.centre) >= h.radius + kMargin),
-            name + "must lie inside the pocket floor or on the flat top, clear of the pocket");
-    require((h.centre - s.boss_centre).norm() >= h.radius + s.boss_radius + kMargin,
-            name + "must be clear of the boss");
+    require_part(h.radius > 0, name + "radius must be positive");
+    require_part(
+        disk_inside(s.pocket_min, s.pocket_max, h.centre, h.radius, kMargin) ||
+            (disk_inside(top_lo, top_hi, h.centre, h.radius, kMargin) &&
+             rectangle_distance(s.pocket_min, s.pocket_max, h.centre) >= h.radius + kMargin),
+        name + "must lie inside the pocket floor or on the flat top, clear of the pocket");
+    require_part((h.centre - s.boss_centre).norm() >= h.radius + s.boss_radius + kMargin,
+                 name + "must be clear of the boss");
     for (std::size_t j = 0; j < i; ++j)
-      require((h.centre - s.holes[j].centre).norm() >= h.radius + s.holes[j].radius + kMargin,
-              name + "must be clear of hole " + std::to_string(j));
+      require_part((h.centre - s.holes[j].centre).norm() >= h.radius + s.holes[j].radius + kMargin,
+                   name + "must be clear of hole " + std::to_string(j));
   }
   const int n = s.circle_segments;
   for (int k = 0; k < n; ++k) {
-    const double angle = 2 * kPi * k / n;
+    const double angle = 2 * std::numbers::pi * k / n;
     unit_circle_.emplace_back(std::cos(angle), std::sin(angle));
   }
 }
@@ -350,7 +352,7 @@ bool PartModel::in_polygon(const Eigen::Vector2d& centre, double radius, const E
                            bool closed) const {
   const double sq = (p - centre).squaredNorm();
   if (sq > radius * radius * (1 + 1e-9)) return false;
-  const double inradius = radius * std::cos(kPi / settings_.circle_segments);
+  const double inradius = radius * std::cos(std::numbers::pi / settings_.circle_segments);
   if (sq < inradius * inradius * (1 - 1e-9)) return true;
   const int n = settings_.circle_segments;
   for (int k = 0; k < n; ++k) {

@@ -23,10 +23,10 @@ struct Primitive {
   virtual bool contains(const Eigen::Vector3d& p) const = 0;
 };
 
-struct Rectangle : Primitive {  // a sheet at height z (no inside)
+struct RectanglePrimitive : Primitive {  // a sheet at height z (no inside)
   Eigen::Vector2d lo, hi;
   double z;
-  Rectangle(Eigen::Vector2d l, Eigen::Vector2d h, double zz) : lo(l), hi(h), z(zz) {}
+  RectanglePrimitive(Eigen::Vector2d l, Eigen::Vector2d h, double zz) : lo(l), hi(h), z(zz) {}
   double area() const override { return (hi - lo).prod(); }
   Eigen::Vector3d sample(Random& rng) const override {
     return {rng.uniform(lo.x(), hi.x()), rng.uniform(lo.y(), hi.y()), z};
@@ -34,9 +34,10 @@ struct Rectangle : Primitive {  // a sheet at height z (no inside)
   bool contains(const Eigen::Vector3d&) const override { return false; }
 };
 
-struct Box : Primitive {  // axis-aligned; the bottom face is not sampled (it stands on something)
+// Axis-aligned; the bottom face is not sampled (it stands on something).
+struct BoxPrimitive : Primitive {
   Eigen::Vector3d lo, hi;
-  Box(Eigen::Vector3d l, Eigen::Vector3d h) : lo(l), hi(h) {}
+  BoxPrimitive(Eigen::Vector3d l, Eigen::Vector3d h) : lo(l), hi(h) {}
   double area() const override {
     const Eigen::Vector3d s = hi - lo;
     return s.x() * s.y() + 2 * s.z() * (s.x() + s.y());
@@ -84,10 +85,10 @@ struct SphereCap : Primitive {  // the part of a sphere above z = z_cut
   }
 };
 
-struct Cylinder : Primitive {  // vertical, with its top disk (base not sampled)
+struct CylinderPrimitive : Primitive {  // vertical, with its top disk (base not sampled)
   Eigen::Vector2d axis;
   double radius, z0, z1;
-  Cylinder(Eigen::Vector2d a, double r, double lo, double hi)
+  CylinderPrimitive(Eigen::Vector2d a, double r, double lo, double hi)
       : axis(a), radius(r), z0(lo), z1(hi) {}
   double area() const override {
     return 2 * 3.14159265358979323846 * radius * (z1 - z0) +
@@ -156,10 +157,11 @@ std::size_t add_outliers(std::vector<Eigen::Vector3d>& points, std::size_t n, Ra
 
 Primitives conveyor_parts(const ConveyorSettings& s) {
   Primitives parts;
-  parts.push_back(std::make_unique<Rectangle>(Eigen::Vector2d(-s.plane_x / 2, -s.plane_y / 2),
-                                              Eigen::Vector2d(s.plane_x / 2, s.plane_y / 2), 0.0));
+  parts.push_back(
+      std::make_unique<RectanglePrimitive>(Eigen::Vector2d(-s.plane_x / 2, -s.plane_y / 2),
+                                           Eigen::Vector2d(s.plane_x / 2, s.plane_y / 2), 0.0));
   const Eigen::Vector3d half(s.box_size.x() / 2, s.box_size.y() / 2, 0);
-  parts.push_back(std::make_unique<Box>(
+  parts.push_back(std::make_unique<BoxPrimitive>(
       s.box_centre - half, s.box_centre + half + Eigen::Vector3d(0, 0, s.box_size.z())));
   parts.push_back(std::make_unique<SphereCap>(
       Eigen::Vector3d(s.cap_centre.x(), s.cap_centre.y(), s.cap_height - s.cap_radius),
@@ -256,16 +258,16 @@ Scene make_object_scene(const ObjectSettings& s) {
   Primitives parts;
   if (s.shape == "bracket") {  // an L-bracket with a boss and a dome
     parts.push_back(
-        std::make_unique<Box>(Eigen::Vector3d(-40, -25, 0), Eigen::Vector3d(40, 25, 10)));
+        std::make_unique<BoxPrimitive>(Eigen::Vector3d(-40, -25, 0), Eigen::Vector3d(40, 25, 10)));
     parts.push_back(
-        std::make_unique<Box>(Eigen::Vector3d(28, -25, 0), Eigen::Vector3d(40, 25, 55)));
-    parts.push_back(std::make_unique<Cylinder>(Eigen::Vector2d(-18, 8), 9, 0, 24));
+        std::make_unique<BoxPrimitive>(Eigen::Vector3d(28, -25, 0), Eigen::Vector3d(40, 25, 55)));
+    parts.push_back(std::make_unique<CylinderPrimitive>(Eigen::Vector2d(-18, 8), 9, 0, 24));
     parts.push_back(std::make_unique<SphereCap>(Eigen::Vector3d(0, -10, 2), 11, 10));
   } else if (s.shape == "bumpy-sphere") {  // a sphere carrying four large domes and a post
     parts.push_back(std::make_unique<SphereCap>(Eigen::Vector3d(0, 0, 0), 30, -30));
     const Eigen::Vector3d bumps[4] = {{26, 0, 12}, {-8, 24, 14}, {-12, -20, 18}, {5, 5, 29}};
     for (const auto& b : bumps) parts.push_back(std::make_unique<SphereCap>(b, 12, -1e9));
-    parts.push_back(std::make_unique<Cylinder>(Eigen::Vector2d(12, -12), 5, 0, 42));
+    parts.push_back(std::make_unique<CylinderPrimitive>(Eigen::Vector2d(12, -12), 5, 0, 42));
   } else {
     throw std::invalid_argument("unknown object shape '" + s.shape + "' (bracket, bumpy-sphere)");
   }
@@ -301,10 +303,10 @@ Scene make_parts_scene(const PartsSettings& s) {
   constexpr double kFloorX = 1200, kFloorY = 900;
   Random rng(s.seed);
   Primitives cell;
-  cell.push_back(std::make_unique<Rectangle>(Eigen::Vector2d(-kFloorX / 2, -kFloorY / 2),
-                                             Eigen::Vector2d(kFloorX / 2, kFloorY / 2), 0.0));
-  cell.push_back(std::make_unique<Box>(Eigen::Vector3d(-kFloorX / 2, kFloorY / 2 - 20, 0),
-                                       Eigen::Vector3d(kFloorX / 2, kFloorY / 2, 250)));
+  cell.push_back(std::make_unique<RectanglePrimitive>(
+      Eigen::Vector2d(-kFloorX / 2, -kFloorY / 2), Eigen::Vector2d(kFloorX / 2, kFloorY / 2), 0.0));
+  cell.push_back(std::make_unique<BoxPrimitive>(Eigen::Vector3d(-kFloorX / 2, kFloorY / 2 - 20, 0),
+                                                Eigen::Vector3d(kFloorX / 2, kFloorY / 2, 250)));
   // Parts on a grid of cells (8 columns), each a box, a cylinder or a dome jittered in its cell.
   const int columns = 8, rows = std::max(1, (s.parts + columns - 1) / columns);
   const double cx = kFloorX / columns, cy = (kFloorY - 60) / rows;
@@ -316,12 +318,13 @@ Scene make_parts_scene(const PartsSettings& s) {
       case 0: {
         const Eigen::Vector3d half(r, rng.uniform(0.5, 1.0) * r, 0);
         const double h = rng.uniform(20, 120);
-        cell.push_back(std::make_unique<Box>(Eigen::Vector3d(centre.x(), centre.y(), 0) - half,
-                                             Eigen::Vector3d(centre.x(), centre.y(), h) + half));
+        cell.push_back(
+            std::make_unique<BoxPrimitive>(Eigen::Vector3d(centre.x(), centre.y(), 0) - half,
+                                           Eigen::Vector3d(centre.x(), centre.y(), h) + half));
         break;
       }
       case 1:
-        cell.push_back(std::make_unique<Cylinder>(centre, r, 0, rng.uniform(20, 150)));
+        cell.push_back(std::make_unique<CylinderPrimitive>(centre, r, 0, rng.uniform(20, 150)));
         break;
       default: {
         const double h = rng.uniform(0.4, 0.9) * r;
@@ -368,12 +371,15 @@ Plate make_plate(const PlateSettings& s) {
   std::vector<Eigen::Vector3d> points;
   // The plate (z = 0 in its own frame), minus the part's footprint when there is a part.
   Primitives sheet;
-  sheet.push_back(std::make_unique<Rectangle>(Eigen::Vector2d(-s.size_x / 2, -s.size_y / 2),
-                                              Eigen::Vector2d(s.size_x / 2, s.size_y / 2), 0.0));
+  sheet.push_back(
+      std::make_unique<RectanglePrimitive>(Eigen::Vector2d(-s.size_x / 2, -s.size_y / 2),
+                                           Eigen::Vector2d(s.size_x / 2, s.size_y / 2), 0.0));
   Primitives part;
-  part.push_back(std::make_unique<Box>(Eigen::Vector3d(5, -12, 0), Eigen::Vector3d(35, 18, 30)));
+  part.push_back(
+      std::make_unique<BoxPrimitive>(Eigen::Vector3d(5, -12, 0), Eigen::Vector3d(35, 18, 30)));
   if (clutter > 0)
-    sheet.push_back(std::make_unique<Box>(Eigen::Vector3d(5, -12, 0), Eigen::Vector3d(35, 18, 30)));
+    sheet.push_back(
+        std::make_unique<BoxPrimitive>(Eigen::Vector3d(5, -12, 0), Eigen::Vector3d(35, 18, 30)));
   // Sample only the sheet's points from the union (the box there just hides its footprint).
   while (static_cast<int>(points.size()) < s.points - clutter) {
     const Eigen::Vector3d p = sheet[0]->sample(rng);

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <stdexcept>
 #include <utility>
 
@@ -9,8 +10,6 @@
 
 namespace align3d::synth {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 // The nearest admissible crossing seen so far, in the shape's local frame.
 struct Crossing {
@@ -169,9 +168,10 @@ double area_of(const Box& b) {
   return 8 * (h.x() * h.y() + h.y() * h.z() + h.z() * h.x());
 }
 double area_of(const Cylinder& c) {
-  return 2 * kPi * c.radius * (2 * c.half_height) + 2 * kPi * c.radius * c.radius;
+  return 2 * std::numbers::pi * c.radius * (2 * c.half_height) +
+         2 * std::numbers::pi * c.radius * c.radius;
 }
-double area_of(const Sphere& s) { return 4 * kPi * s.radius * s.radius; }
+double area_of(const Sphere& s) { return 4 * std::numbers::pi * s.radius * s.radius; }
 
 Eigen::AlignedBox3d box_of(const Plane&) {
   return {Eigen::Vector3d::Constant(-kInfinity), Eigen::Vector3d::Constant(kInfinity)};
@@ -230,9 +230,10 @@ Sample sample_on(const Box& b, Random& rng) {
 }
 
 Sample sample_on(const Cylinder& c, Random& rng) {
-  const double side = 2 * kPi * c.radius * 2 * c.half_height, cap = kPi * c.radius * c.radius;
+  const double side = 2 * std::numbers::pi * c.radius * 2 * c.half_height,
+               cap = std::numbers::pi * c.radius * c.radius;
   const double pick = rng.uniform() * (side + 2 * cap);
-  const double phi = rng.uniform(0, 2 * kPi);
+  const double phi = rng.uniform(0, 2 * std::numbers::pi);
   const Eigen::Matrix3d& R = c.pose.linear();
   if (pick < side) {
     const Eigen::Vector3d radial(std::cos(phi), std::sin(phi), 0);
@@ -247,7 +248,7 @@ Sample sample_on(const Cylinder& c, Random& rng) {
 
 // Archimedes: the sphere's area is uniform in z, so z and the azimuth are drawn uniformly.
 Sample sample_on(const Sphere& s, Random& rng) {
-  const double z = rng.uniform(-1, 1), phi = rng.uniform(0, 2 * kPi);
+  const double z = rng.uniform(-1, 1), phi = rng.uniform(0, 2 * std::numbers::pi);
   const double rho = std::sqrt(std::max(0.0, 1 - z * z));
   const Eigen::Vector3d n(rho * std::cos(phi), rho * std::sin(phi), z);
   return {s.centre + s.radius * n, n};

@@ -40,19 +40,26 @@
 
 namespace align3d {
 
-struct RefineSettings {
-  IcpMethod method = IcpMethod::kPointToPlane;           // the final metric
+// The cost ICP minimises and the kernel weighing its pairs: the choice every command that refines
+// offers (register, inspect, stitch, find; set_kernel() parses the kernel's name).
+struct CostSettings {
+  IcpMethod method = IcpMethod::kPointToPlane;  // the final metric
+  // The kernel weighing the pairs (kernels.hpp). Unset: each command's own default (refine():
+  // below). Set: kernel_scale > 0 in data units, else kernel_tuning(kernel) × σ̂, the noise as each
+  // command estimates it.
+  std::optional<RobustKernel> kernel;
+  double kernel_scale = 0;
+};
+
+struct RefineSettings : CostSettings {
   RejectionRule rejection = RejectionRule::automatic();  // kAuto: the schedule above
   // For a fixed rule, of the single run; for `auto`, of the final stage (the coarse stages have
   // their own cap of 30 iterations and looser tolerances).
   TerminationSettings termination;
-  // The kernel weighing the pairs (kernels.hpp). Unset: `auto` weighs every stage by Geman-McClure
-  // at τ/2 (above), a fixed rule does not weigh. Set: the final stage of `auto` (its coarse stages
-  // keep their own), or the single run, use it; kernel_scale > 0 in data units, else
-  // kernel_tuning(kernel) × σ̂ (for `auto` the last coarse stage's RMS, for a single run the
-  // median residual of each iteration, solver.hpp).
-  std::optional<RobustKernel> kernel;
-  double kernel_scale = 0;
+  // The kernel (CostSettings): unset, `auto` weighs every stage by Geman-McClure at τ/2 (above)
+  // and a fixed rule does not weigh. Set, the final stage of `auto` (its coarse stages keep their
+  // own) or the single run use it, σ̂ being for `auto` the last coarse stage's RMS, for a single
+  // run the median residual of each iteration (solver.hpp).
   // For target normals when the target has none, and for the source's when the method needs them
   // (GICP, symmetric) and it has none (k; threads ignored).
   NormalSettings normals;
@@ -134,14 +141,14 @@ struct RefineResult {
 };
 
 // The name set_kernel() takes for settings.kernel: "auto" when unset, else the kernel's.
-inline const char* kernel_name(const RefineSettings& settings) {
+inline const char* kernel_name(const CostSettings& settings) {
   return settings.kernel ? to_string(*settings.kernel) : "auto";
 }
 
 // Sets settings.kernel and kernel_scale from a name ("auto": unset, or a name of kernels.hpp) and a
 // scale (data units, >= 0; 0: from the noise). std::invalid_argument for an unknown name, a
 // negative or non-finite scale, or a scale with "auto" (the schedule sets its own).
-void set_kernel(RefineSettings& settings, std::string_view name, double scale);
+void set_kernel(CostSettings& settings, std::string_view name, double scale);
 
 // Throws DataError("source"/"target", …) when a cloud has too few points (fewer than 6, or fewer
 // than the normal neighbourhood for point-to-plane) or is degenerate (all points on one line or at

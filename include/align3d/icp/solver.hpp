@@ -75,7 +75,8 @@ IcpStep solve_step(const StepInput& in, const StepCost& cost, int threads);
 // `free_sigma` (data units; the loop passes the target's diagonal): the data do not fix it.
 // `cost.kernel_scale` must be the step's (IcpStep::kernel_scale). Zero with fewer pairs than the
 // method needs. Not for point-to-point's error on two samplings of a surface, which is a bias from
-// the pairing, not noise.
+// the pairing, not noise; nor for point-to-plane's bias between two range scans (about one σ:
+// tests/icp_methods_test.cpp, Covariance/RangeScans), where GICP and symmetric are calibrated.
 Matrix6d pose_covariance(const StepInput& in, const StepCost& cost, const Matrix6d& hessian,
                          const std::vector<WeakDirection>& weak, double free_sigma, int threads);
 

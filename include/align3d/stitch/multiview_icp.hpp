@@ -4,10 +4,12 @@
 //
 // Each iteration pairs, for every link (a, b) and both ways, the sampled points of one scan with
 // their nearest point of the other (in node 0's frame at the current poses) within `max_distance`,
-// point-to-plane with the other's normal (a partner whose normal differs by more than 45° is on
-// another face: no pair), weighted by a Geman-McClure kernel of scale
-// max_distance / 2; the Gauss-Newton step of all poses (left updates about the scans' common
-// centroid; node 0 held fixed) is one dense 6N × 6N solve. Written here rather than with Ceres:
+// (a partner whose normal differs by more than 45° is on another face: no pair), the pair's cost
+// one of the ICP layer's (icp/factors.hpp; point-to-plane by default, with the other's normal),
+// written for both poses moving, weighted by a robust kernel of its point-to-plane distance
+// (Geman-McClure of scale max_distance / 2 by default); the Gauss-Newton step of all poses (left
+// updates about the scans' common centroid; node 0 held fixed) is one dense 6N × 6N solve.
+// Written here rather than with Ceres:
 // the pairs are found again at every iteration, and the normal equations are LinearSystem6's sums
 // (icp/factors.hpp) laid out in blocks, a few hundred unknowns at most.
 #pragma once
@@ -18,6 +20,8 @@
 #include <utility>
 #include <vector>
 
+#include "align3d/icp/factors.hpp"
+#include "align3d/icp/kernels.hpp"
 #include "align3d/kdtree.hpp"
 #include "align3d/point_cloud.hpp"
 
@@ -36,6 +40,9 @@ struct MultiviewSettings {
   // translation, in data units).
   double tolerance = 1e-6;
   double length = 1;  // the object's size, for the rotation part of the tolerance
+  IcpMethod method = IcpMethod::kPointToPlane;
+  RobustKernel kernel = RobustKernel::kGemanMcClure;
+  double kernel_scale = 0;  // data units; 0: max_distance / 2
   int threads = 0;
 };
 
@@ -50,6 +57,23 @@ struct MultiviewResult {
   // Per scan, its sampled points' pairs in the final poses (point-to-plane distances).
   std::vector<MultiviewPairs> residuals;
 };
+
+// One pair's terms: x_a = T_a·p and x_b = T_b·q in node 0's frame, n_a and n_b their scans'
+// normals turned likewise. The residual e (its first `rows` entries: 1 for point-to-plane,
+// n_b·(x_a − x_b), and symmetric, (n_a + n_b)·(x_a − x_b); 3 for point-to-point and GICP,
+// x_a − x_b, weighed by M: I, or GICP's (C(n_a) + C(n_b))⁻¹ held over the step), and its
+// Jacobians for left updates of each pose about `centre`, x ← x + ω × (x − c) + v, the normals
+// turning with their scan.
+struct MultiviewPairTerms {
+  int rows = 1;
+  Eigen::Vector3d e = Eigen::Vector3d::Zero();
+  Eigen::Matrix<double, 3, 6> ja = Eigen::Matrix<double, 3, 6>::Zero();
+  Eigen::Matrix<double, 3, 6> jb = Eigen::Matrix<double, 3, 6>::Zero();
+  Eigen::Matrix3d M = Eigen::Matrix3d::Identity();
+};
+MultiviewPairTerms multiview_pair_terms(IcpMethod method, const Eigen::Vector3d& xa,
+                                        const Eigen::Vector3d& xb, const Eigen::Vector3d& na,
+                                        const Eigen::Vector3d& nb, const Eigen::Vector3d& centre);
 
 // `poses[k]` maps scan k into node 0's frame; `links` are pairs of scan indices (each once).
 // Scans in no link keep their pose.
