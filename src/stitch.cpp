@@ -321,8 +321,7 @@ MultiviewResult refine_views(const std::vector<ScanData>& scans,
   ms.method = s.cost.method == IcpMethod::kPointToPoint ? IcpMethod::kPointToPlane : s.cost.method;
   if (s.cost.kernel) {
     ms.kernel = *s.cost.kernel;
-    ms.kernel_scale = s.cost.kernel_scale > 0 ? s.cost.kernel_scale
-                                              : kernel_tuning(ms.kernel) * std::sqrt(2.0) * noise;
+    ms.kernel_scale = kernel_scale_or_tuned(ms.kernel, s.cost.kernel_scale, std::sqrt(2.0) * noise);
   }
   return multiview_icp(views, links, poses, ms);
 }

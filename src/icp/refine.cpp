@@ -206,8 +206,8 @@ void refine_schedule(const PointCloud& source, RefineTarget& target, const Eigen
   if (!settings.kernel) {
     last.kernel = RobustKernel::kGemanMcClure;
     last.kernel_scale = kKernelFraction * tau;
-  } else if (!(settings.kernel_scale > 0)) {
-    last.kernel_scale = kernel_tuning(last.kernel) * sigma;
+  } else {
+    last.kernel_scale = kernel_scale_or_tuned(last.kernel, settings.kernel_scale, sigma);
   }
   out.icp = run(source, T, last);
 }

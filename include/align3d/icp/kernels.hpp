@@ -70,6 +70,12 @@ inline double kernel_tuning(RobustKernel k) {
   return 0.0;
 }
 
+// The scale of a chosen kernel: `scale` when positive (data units), else kernel_tuning(k) × σ̂,
+// `sigma` being the noise of the residuals as the caller estimates it (CostSettings, refine.hpp).
+inline double kernel_scale_or_tuned(RobustKernel k, double scale, double sigma) {
+  return scale > 0 ? scale : kernel_tuning(k) * sigma;
+}
+
 // w(d) for scale c > 0 (the table above); 1 for kNone or c <= 0 (plain least squares).
 inline double kernel_weight(RobustKernel k, double d, double c) {
   if (k == RobustKernel::kNone || !(c > 0)) return 1.0;
