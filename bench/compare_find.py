@@ -55,7 +55,7 @@ Systems and their settings (for the peers v = the voxel = 4 % of the model's dia
 the bracket: finer than align3d's default 5 %, which gives them more points and time):
   align3d  `align3d find MODEL.stl SCENE.pcd --report R.json --threads T` (align3d_find_command,
            the one place that knows the command line): its defaults (find.hpp and `align3d find
-           --help`: voxel 5 % of the diameter, min score 0.3, symmetry detected, the dominant
+           --help`: voxel 5 % of the diameter, min score 0.6, symmetry detected, the dominant
            plane removed when it holds 20 %). detect = the report's timing_ms.total (find()'s
            clock; the model's preparation is outside it and not reported apart).
   open3d   Open3D 0.16 (Debian's python3-open3d), in a process of its own (this script with
@@ -241,6 +241,7 @@ def run_align3d(args, scene, work):
     report = os.path.join(work, f"{scene['name']}-align3d.json")
     cmd = align3d_find_command(args.cli, os.path.join(scene["dir"], "model.stl"),
                                os.path.join(scene["dir"], "scene.pcd"), report, args.threads)
+    cmd += args.align3d_args.split()
     p, wall, err = run_process(cmd, args.align3d_timeout)
     if err:
         return {"status": "error", "error": err, "instances": [], "process_ms": wall, "command": cmd}
@@ -468,6 +469,8 @@ def main():
                     help="extra options for the Open3D runner: --max-tries N, --min-fitness F (tuning)")
     ap.add_argument("--peer-budget", type=float, default=20.0, help="seconds a scene for each peer")
     ap.add_argument("--align3d-timeout", type=float, default=120.0)
+    ap.add_argument("--align3d-args", default="",
+                    help="extra options for `align3d find`, e.g. \"--voxel-fraction 0.04\" (tuning)")
     args = ap.parse_args()
     systems = [s for s in args.systems.split(",") if s]
     for s in systems:

@@ -409,6 +409,38 @@ TEST(CliEvaluate, QuickRunWritesTheTableAndTheBasin) {
   EXPECT_EQ(j["basin"].size(), 18u);
 }
 
+// The scenes a peer runs on: each truth puts the source onto the target (brute-force nearest
+// neighbours of a sample, outliers aside), and the chapter's is the one `synth` writes.
+TEST(CliEvaluate, ScenesOnlyWritesEachSceneWithItsTruth) {
+  test::TempDir d("evaluate_scenes");
+  const CliRun r = run({"evaluate", d.path().string(), "--scenes-only"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(d / "evaluation.md"));  // measures nothing
+  const auto j = nlohmann::json::parse(read_text(d / "evaluation.json"));
+  ASSERT_EQ(j["scenes"].size(), 3u);
+  for (const auto& scene : j["scenes"]) {
+    const PointCloud source = io::read_point_cloud(d / scene["source"].get<std::string>());
+    const PointCloud target = io::read_point_cloud(d / scene["target"].get<std::string>());
+    const Eigen::Isometry3d T = io::read_matrix(d / scene["truth"].get<std::string>());
+    const double L = bounding_box_diagonal(target);  // of the file: PLY stores float32
+    EXPECT_NEAR(scene["diagonal"].get<double>(), L, 1e-6 * L);
+    std::vector<double> nearest;
+    for (std::size_t i = 0; i < source.size(); i += source.size() / 200) {
+      const Eigen::Vector3d p = T * source.positions[i];
+      double best = 1e300;
+      for (const auto& q : target.positions) best = std::min(best, (q - p).norm());
+      nearest.push_back(best);
+    }
+    std::nth_element(nearest.begin(), nearest.begin() + nearest.size() / 2, nearest.end());
+    EXPECT_LT(nearest[nearest.size() / 2], 0.01 * bounding_box_diagonal(target)) << scene["name"];
+  }
+  test::TempDir chapter("evaluate_chapter");
+  ASSERT_EQ(run({"synth", chapter.path().string()}).code, 0);
+  const Eigen::Isometry3d synth_truth = io::read_matrix(chapter / "ground_truth.txt");
+  const Eigen::Isometry3d written = io::read_matrix(d / "scenes/chapter/truth.txt");
+  EXPECT_TRUE(written.matrix().isApprox(synth_truth.matrix(), 1e-12));
+}
+
 // ---- convert ----
 
 struct CloudFile {

@@ -280,6 +280,7 @@ def evaluate(
     cell_trials: Optional[int] = ...,
     seed: Optional[int] = ...,
     quick: bool = ...,
+    scenes_only: bool = ...,
     threads: Optional[int] = ...,
 ) -> Dict[str, Any]: ...
 def demo(

@@ -102,6 +102,7 @@ def evaluate(
     cell_trials: Optional[int] = None,
     seed: Optional[int] = None,
     quick: bool = False,
+    scenes_only: bool = False,
     threads: Optional[int] = None,
 ) -> Dict[str, Any]:
     """Measures registration from random starting poses (``align3d evaluate``): success rates of
@@ -109,11 +110,13 @@ def evaluate(
     and two object views, and the convergence basins. Writes ``evaluation.md``,
     ``evaluation.json`` and ``basin_<scene>.svg``/``.png`` into ``outdir`` and returns
     ``evaluation.json`` as a dict (``success``: one row per scene and method; ``basin``: one grid
-    per scene and method, with its ``scene``). The full run
-    takes minutes; ``quick=True`` (3 trials, a 2×2 basin) checks the machinery in seconds."""
+    per scene and method, with its ``scene``; ``scenes``: each scene's files, written into
+    ``outdir/scenes/<name>/``: ``source.ply``, ``target.ply`` and ``truth.txt``, target ≈
+    T·source). The full run takes minutes; ``quick=True`` (3 trials, a 2×2 basin) checks the
+    machinery in seconds; ``scenes_only=True`` writes the scenes and measures nothing."""
     run("evaluate", [outdir],
         dict(trials=trials, cell_trials=cell_trials, seed=seed, threads=threads),
-        dict(quick=quick, quiet=True))
+        dict(quick=quick, scenes_only=scenes_only, quiet=True))
     return _json(Path(outdir) / "evaluation.json")
 
 

@@ -7,6 +7,8 @@
 #include "align3d/error.hpp"
 #include "align3d/evaluate.hpp"
 #include "align3d/io/atomic_file.hpp"
+#include "align3d/io/matrix_io.hpp"
+#include "align3d/io/point_cloud_io.hpp"
 #include "align3d/report/figure.hpp"
 #include "common.hpp"
 
@@ -18,7 +20,7 @@ struct EvaluateOptions {
   int trials = 100;
   int cell_trials = 4;
   std::uint64_t seed = 1;
-  bool quick = false, quiet = false;
+  bool quick = false, quiet = false, scenes_only = false;
   int threads = 0;
 };
 
@@ -107,6 +109,28 @@ nlohmann::json basin_json(EvalMethod method, const Basin& b) {
           {"success", rows}};
 }
 
+// Every scene as files (OUTDIR/scenes/<name>/{source.ply,target.ply,truth.txt}), so that a peer
+// (bench/compare_basin.py) can run on the same data; listed under "scenes" in the JSON.
+nlohmann::json write_scenes(const std::filesystem::path& dir,
+                            const std::vector<EvalScene>& scenes) {
+  nlohmann::json list = nlohmann::json::array();
+  for (const EvalScene& scene : scenes) {
+    const std::filesystem::path rel = std::filesystem::path("scenes") / scene.name;
+    std::error_code ec;
+    std::filesystem::create_directories(dir / rel, ec);
+    if (ec) throw OutputError(dir / rel, "cannot create directory: " + ec.message());
+    io::write_point_cloud(dir / rel / "source.ply", scene.source);
+    io::write_point_cloud(dir / rel / "target.ply", scene.target);
+    io::write_matrix(dir / rel / "truth.txt", scene.T_target_source);
+    list.push_back({{"name", scene.name},
+                    {"source", (rel / "source.ply").generic_string()},
+                    {"target", (rel / "target.ply").generic_string()},
+                    {"truth", (rel / "truth.txt").generic_string()},
+                    {"diagonal", bounding_box_diagonal(scene.target)}});
+  }
+  return list;
+}
+
 int run_evaluate(const EvaluateOptions& o, Streams io) {
   const auto start = std::chrono::steady_clock::now();
   const int trials = o.quick ? 3 : o.trials;
@@ -121,12 +145,19 @@ int run_evaluate(const EvaluateOptions& o, Streams io) {
   if (ec) throw OutputError(o.outdir, "cannot create directory: " + ec.message());
 
   const auto scenes = evaluation_scenes();
+  const std::filesystem::path dir(o.outdir);
+  nlohmann::json json = {{"scenes", write_scenes(dir, scenes)}};
+  if (o.scenes_only) {
+    io::write_text_atomically(dir / "evaluation.json", json.dump(2) + "\n");
+    if (!o.quiet) io.out << "wrote " << o.outdir << "/{evaluation.json,scenes/}\n";
+    return 0;
+  }
+  json["trials"] = trials;
+  json["seed"] = o.seed;
   std::ostringstream md;
-  nlohmann::json json = {{"trials", trials}, {"seed", o.seed}};
   success_table(o, trials, scenes, io, md, json);
 
   // The basin on every scene, one figure per scene with a panel per method.
-  const std::filesystem::path dir(o.outdir);
   json["basin"] = nlohmann::json::array();
   ProgressLine progress(io.err, o.quiet, "");
   for (const EvalScene& scene : scenes) {
@@ -182,6 +213,10 @@ Command add_evaluate(CLI::App& app, Streams io) {
       ->check(CLI::NonNegativeNumber)  // CLI11 would wrap -1 to 2^64 - 1
       ->capture_default_str();
   sub->add_flag("--quick", o->quick, "3 trials and a 2×2 basin: checks the machinery only");
+  sub->add_flag("--scenes-only", o->scenes_only,
+                "Only write the scenes (OUTDIR/scenes/<name>/source.ply, target.ply and truth.txt: "
+                "target ≈ T·source) and evaluation.json listing them, for running a peer on the "
+                "same data (bench/compare_basin.py); measures nothing");
   add_threads(sub, o->threads);
   add_quiet(sub, o->quiet);
   return {sub, [o, io] { return run_evaluate(*o, io); }};
