@@ -27,9 +27,10 @@ using detail::ms_since;
 constexpr std::size_t kMaxHypotheses = 400;
 constexpr std::size_t kHypothesesPerPlace = 8;  // ppf_hypotheses' max_per_place
 constexpr double kPlaneShare = 0.2;             // a plane with this share of the scene is the floor
-constexpr int kMaxPlanes = 3;             // planes removed at most (ground, bin floor, a table)
-constexpr double kPlaneVoxels = 0.5;      // RANSAC's inlier distance for the floor
-constexpr double kExplainVoxels = 0.75;   // a scene point this near explains a model point
+constexpr int kMaxPlanes = 3;         // planes removed at most (ground, bin floor, a table)
+constexpr double kPlaneVoxels = 0.5;  // RANSAC's inlier distance for the floor
+constexpr std::size_t kPlaneScorePoints = 2000;  // RANSAC counts its candidates on these
+constexpr double kExplainVoxels = 0.75;          // a scene point this near explains a model point
 constexpr double kFreeSpaceVoxels = 1.5;  // scene this far behind a model point: seen through it
 constexpr double kRefineNormalDeg = 45;   // scene and model normals of a refined pair
 constexpr double kVerifyNormalDeg = 45;   // scene and model normals of an explained point
@@ -72,15 +73,14 @@ struct Prepared {
   std::size_t depth_dropped = 0, plane_points = 0;
 };
 
-// Removes the dominant plane from `kept` (indices into prep.points) when it holds kPlaneShare.
-bool remove_floor(Prepared& prep, std::vector<std::size_t>& kept, double voxel,
+// Removes the dominant plane from `kept` (indices into prep.points) and from `sample` (their
+// downsampling, which RANSAC searches) when it holds kPlaneShare of the sample.
+bool remove_floor(Prepared& prep, std::vector<std::size_t>& kept, PointCloud& sample, double voxel,
                   std::uint64_t seed) {
-  PointCloud sample;
-  for (std::size_t i : kept) sample.positions.push_back(prep.points[i]);
-  sample = voxel_downsample(sample, voxel / 2);
   RansacPlaneSettings rs;
   rs.threshold = kPlaneVoxels * voxel;
   rs.seed = seed;
+  rs.score_points = kPlaneScorePoints;
   RansacPlaneResult plane;
   try {
     plane = ransac_plane(sample.positions, rs);
@@ -105,6 +105,9 @@ bool remove_floor(Prepared& prep, std::vector<std::size_t>& kept, double voxel,
     prep.plane_points += on ? 1 : 0;
     prep.on_plane[i] = on ? 1 : 0;
     return on;
+  });
+  std::erase_if(sample.positions, [&](const Eigen::Vector3d& p) {
+    return std::abs(plane.plane.signed_distance(p)) <= band;
   });
   return true;
 }
@@ -141,8 +144,13 @@ Prepared prepare_scene(const FindScene& scene, const PpfModel& model, const Find
                                  "): a model in other units than the scene, or the files swapped?");
   // The dominant plane, and again while one holds kPlaneShare of what is left: a camera above a
   // bin sees the ground around it and the bin's floor, 12 mm apart.
-  for (int round = 0; s.remove_plane && round < kMaxPlanes; ++round)
-    if (!remove_floor(prep, kept, model.voxel, s.seed)) break;
+  if (s.remove_plane) {
+    PointCloud sample;
+    for (std::size_t i : kept) sample.positions.push_back(prep.points[i]);
+    sample = voxel_downsample(sample, model.voxel / 2);
+    for (int round = 0; round < kMaxPlanes; ++round)
+      if (!remove_floor(prep, kept, sample, model.voxel, s.seed)) break;
+  }
   PointCloud rest;
   rest.positions.reserve(kept.size());
   for (std::size_t i : kept) rest.positions.push_back(prep.points[i]);
@@ -679,21 +687,23 @@ FindResult find(const PpfModel& model, const FindScene& scene, const FindSetting
   const KdTree& voting_tree = *prep.voting_tree;
   const Eigen::Vector3d model_centre = centroid(model.points);
   std::vector<Hypothesis> hyps(votes.size());
-  parallel_for(votes.size(), threads, [&](std::size_t h) {
+  // One task a hypothesis (parallel_tasks, not parallel_for's runs of 256: 400 hypotheses would
+  // make two runs of unequal size).
+  parallel_tasks(votes.size(), threads, [&](std::size_t h) {
     hyps[h].T_camera_model =
         refine(model, model_tree, prep.voting, voting_tree, model_centre, votes[h].T_scene_model);
   });
   result.refine_ms = ms_since(lap);
 
   lap = Clock::now();
-  parallel_for(hyps.size(), threads, [&](std::size_t h) {
+  parallel_tasks(hyps.size(), threads, [&](std::size_t h) {
     hyps[h].evidence = verify(model, prep, hyps[h].T_camera_model);
   });
   std::vector<std::vector<std::uint32_t>> points;
   const std::vector<std::size_t> accepted =
       suppress(hyps, prep, model, model_tree, settings, points);
   result.instances.resize(accepted.size());
-  parallel_for(accepted.size(), threads, [&](std::size_t k) {
+  parallel_tasks(accepted.size(), threads, [&](std::size_t k) {
     const Hypothesis& h = hyps[accepted[k]];
     FoundInstance& out = result.instances[k];
     const Eigen::Isometry3d T =

@@ -335,13 +335,18 @@ void KdTree::knn_unsorted(const Eigen::Vector3d& query, std::size_t k,
 
 void KdTree::radius(const Eigen::Vector3d& query, double sq_radius,
                     std::vector<Neighbor>& out) const {
+  radius_unsorted(query, sq_radius, out);
+  std::sort(out.begin(), out.end(), [](const Neighbor& a, const Neighbor& b) {
+    return a.sq_distance < b.sq_distance || (a.sq_distance == b.sq_distance && a.index < b.index);
+  });
+}
+
+void KdTree::radius_unsorted(const Eigen::Vector3d& query, double sq_radius,
+                             std::vector<Neighbor>& out) const {
   out.clear();
   // Points with d == r belong to the result: the bound to beat is one ulp above r.
   RadiusResult result{std::nextafter(sq_radius, std::numeric_limits<double>::infinity()), out};
   impl_->search(query, result);
-  std::sort(out.begin(), out.end(), [](const Neighbor& a, const Neighbor& b) {
-    return a.sq_distance < b.sq_distance || (a.sq_distance == b.sq_distance && a.index < b.index);
-  });
   for (auto& nb : out) nb.index = impl_->original[nb.index];
 }
 

@@ -131,6 +131,15 @@ void check_against_brute_force(const std::vector<Eigen::Vector3d>& points, Rando
       }
       EXPECT_EQ(got.size(), found.size()) << "an index reported twice";
       EXPECT_EQ(got, expected) << "sq_radius = " << sq_r;
+      // radius_unsorted: the same set, each with its own distance.
+      tree.radius_unsorted(query, sq_r, found);
+      got.clear();
+      for (const auto& m : found) {
+        got.insert(m.index);
+        EXPECT_EQ(sq_dist(query, points[m.index]), m.sq_distance);
+      }
+      EXPECT_EQ(got.size(), found.size()) << "unsorted: an index reported twice";
+      EXPECT_EQ(got, expected) << "unsorted, sq_radius = " << sq_r;
     }
   }
 }

@@ -65,6 +65,10 @@ RansacPlaneResult ransac_plane(const std::vector<Eigen::Vector3d>& points,
   if (!(diagonal > 0)) throw DataError("all points are at one spot: no plane");
   const double threshold = settings.threshold > 0 ? settings.threshold : 0.005 * diagonal;
 
+  // The points candidates are counted on: all, or every m-th (settings.score_points).
+  const std::size_t stride = settings.score_points > 0 && n > settings.score_points
+                                 ? (n + settings.score_points - 1) / settings.score_points
+                                 : 1;
   Random rng(settings.seed);
   std::size_t best_count = 0;
   Plane best;
@@ -76,12 +80,14 @@ RansacPlaneResult ransac_plane(const std::vector<Eigen::Vector3d>& points,
     if (normal.norm() <= 1e-12 * diagonal * diagonal) continue;  // collinear sample
     const Plane candidate{normal.normalized(), a};
     std::size_t count = 0;
-    for (const auto& p : points) count += std::abs(candidate.signed_distance(p)) <= threshold;
+    for (std::size_t i = 0; i < n; i += stride)
+      count += std::abs(candidate.signed_distance(points[i])) <= threshold;
     if (count > best_count) {
       best_count = count;
       best = candidate;
     }
   }
+  if (stride > 1 && best_count > 0) best_count = within(points, best, threshold).size();
   if (best_count < 3)
     throw DataError("all points lie on one line: no plane (no 3-point sample spanned one)");
   // A blob, a sphere or scattered points: any slab holds a small share of them.

@@ -100,15 +100,15 @@ GlobalResult ppf_register(const PointCloud& source, const PointCloud& target,
 // al. (2018) found to matter: each scene pair also looks up the neighbouring feature bins of
 // every dimension whose value lies within a quarter bin of the edge (noise moves features across
 // bin edges), and one scene pair votes at most once for any (model reference, α bin) cell
-// (Hinterstoisser et al. 2016). Every kSceneReferenceStep-th scene point is a reference, its 3
-// highest cells become poses, the poses are clustered (12°, 2 voxels; for a symmetric part after
-// turning each to its canonical form, symmetry.hpp, so the votes for one instance are not spread
-// over its equivalent poses) and the clusters with the most votes returned, at most
-// `max_hypotheses`, most votes first. With `max_per_place` > 0 a cluster is skipped when that many
-// stronger ones already put the model's centroid within a quarter of its diameter of the place
-// where the first of them put it: a well-seen part draws dozens of clusters (its faces matched
-// at wrong turns), and without a cap they fill the list before a less-seen part gets one. Same
-// result whatever the thread count.
+// (Hinterstoisser et al. 2016). Every kSceneReferenceStep-th scene point is a reference, paired
+// with every second scene point within the model's diameter; its 3 highest cells become poses, the
+// poses are clustered (12°, 2 voxels; for a symmetric part after turning each to its canonical
+// form, symmetry.hpp, so the votes for one instance are not spread over its equivalent poses) and
+// the clusters with the most votes returned, at most `max_hypotheses`, most votes first. With
+// `max_per_place` > 0 a cluster is skipped when that many stronger ones already put the model's
+// centroid within a quarter of its diameter of the place where the first of them put it: a
+// well-seen part draws dozens of clusters (its faces matched at wrong turns), and without a cap
+// they fill the list before a less-seen part gets one. Same result whatever the thread count.
 
 // Voxel centroids of the scene with PCA normals (as the model's) turned toward `viewpoint`.
 // Throws DataError("scene", …) with fewer than 10 points after downsampling or all on a line.

@@ -29,6 +29,10 @@ struct RansacPlaneSettings {
   double threshold = 0.0;
   int iterations = 500;
   std::uint64_t seed = 1;  // same seed, same result (single-threaded)
+  // Candidates are counted on at most this many points (every m-th), 0: all; the inliers and the
+  // refits take every point. A plane holding a fifth of 2000 points is counted to ±2 % of them:
+  // enough to tell the dominant plane at a fraction of the cost on a large cloud.
+  std::size_t score_points = 0;
 };
 
 struct RansacPlaneResult {
