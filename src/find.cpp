@@ -297,43 +297,82 @@ double outline_continuation(ModelView& view, const std::vector<Eigen::Vector3d>&
   return valid ? static_cast<double>(continuing) / static_cast<double>(valid) : 0.0;
 }
 
-// Whether the scene's surface at scene point s faces as the model's normal n does (within
-// kVerifyNormalDeg; the normal of the voting point nearest s, within a voxel). A surface passing
-// near the model at another angle (a neighbour's side, a box under a face) explains nothing.
-bool agrees(const Prepared& prep, const Eigen::Vector3d& s, const Eigen::Vector3d& n,
-            double voxel) {
-  static const double min_cos = std::cos(deg_to_rad(kVerifyNormalDeg));
+// Whether x (model frame) lies on the model's surface: within 2 × explain of a model point and
+// within explain / 2 of its tangent plane.
+bool on_surface(const PpfModel& model, const KdTree& model_tree, const Eigen::Vector3d& x,
+                double explain) {
   Neighbor nn;
-  if (!prep.voting_tree->nearest(s, nn, voxel * voxel)) return true;
-  return prep.voting.normals[nn.index].dot(n) >= min_cos;
+  if (!model_tree.nearest(x, nn, 4 * explain * explain)) return false;
+  const Eigen::Vector3d off = x - model.points.positions[nn.index];
+  return std::abs(model.points.normals[nn.index].dot(off)) <= explain / 2;
 }
 
-// Whether the explained scene points lie on one plane (fit_plane) that goes on well beyond the
-// model's footprint in the image (the owners' pixels and their outline ring, `footprint` of them):
-// a face of the part matched into a larger surface, a plate into the bin's wall beside the floor,
-// where the outline test sees the floor. The plane is grown over 4-connected pixels from the
-// explained ones, through scene points within `explain` of it and within the diameter of their
-// centroid, not those of a removed plane (a plate lying on the floor is parallel to it, a plate's
-// thickness above).
-bool surface_overhang(const ModelView& view, std::size_t footprint,
-                      const std::vector<std::uint32_t>& explained_pixels, const Prepared& prep,
-                      double explain, double diameter) {
-  const RangeImage& image = prep.image;
-  if (explained_pixels.size() < kMinExplained) return false;
-  std::vector<std::size_t> explained_points;
-  for (std::uint32_t px : explained_pixels)
-    explained_points.push_back(static_cast<std::size_t>(image.point[px]));
+// Whether the scene's surface at scene point s faces as the model's normal n does (within
+// max_deg; the normal of the voting point nearest s, within a voxel). A surface passing
+// near the model at another angle (a neighbour's side, a box under a face) explains nothing.
+bool agrees(const Prepared& prep, const Eigen::Vector3d& s, const Eigen::Vector3d& n, double voxel,
+            double max_deg = kVerifyNormalDeg) {
+  Neighbor nn;
+  if (!prep.voting_tree->nearest(s, nn, voxel * voxel)) return true;
+  return prep.voting.normals[nn.index].dot(n) >= std::cos(deg_to_rad(max_deg));
+}
+
+// A face of the part that the scene explains, flat: its explained pixels grouped by their model
+// point's normal (within kFaceDeg of the group's first), holding kFaceShare of them, whose scene
+// points lie on one plane (fit_plane; RMS below kFlatExplains × explain). One face at a time: an L
+// fitted into two surfaces (the bin's inner corner) explains two planes, which a test over all
+// its points would not see as one.
+struct FlatFace {
   Plane plane;
-  try {
-    plane = fit_plane(prep.points, &explained_points);
-  } catch (const DataError&) {
-    return false;  // on one spot or one line, or a volume: not a face
+  Eigen::Vector3d normal;  // the model's (outward) normal of the group's first point
+  std::vector<std::uint32_t> pixels;
+};
+
+std::vector<FlatFace> flat_faces(const std::vector<Eigen::Vector3d>& n,
+                                 const std::vector<std::size_t>& explained_model,
+                                 const std::vector<std::uint32_t>& pixels, const Prepared& prep,
+                                 double explain) {
+  const double min_cos = std::cos(deg_to_rad(kFaceDeg));
+  std::vector<std::pair<Eigen::Vector3d, std::vector<std::uint32_t>>> groups;
+  for (std::size_t k = 0; k < pixels.size(); ++k) {
+    const Eigen::Vector3d& normal = n[explained_model[k]];
+    auto group = std::find_if(groups.begin(), groups.end(),
+                              [&](const auto& g) { return g.first.dot(normal) >= min_cos; });
+    if (group == groups.end()) group = groups.insert(groups.end(), {normal, {}});
+    group->second.push_back(pixels[k]);
   }
-  double sq_sum = 0;
-  for (std::size_t q : explained_points)
-    sq_sum += std::pow(plane.signed_distance(prep.points[q]), 2);
-  if (std::sqrt(sq_sum / static_cast<double>(explained_points.size())) > kFlatExplains * explain)
-    return false;
+  std::vector<FlatFace> faces;
+  for (auto& [normal, group] : groups) {
+    if (static_cast<double>(group.size()) < kFaceShare * static_cast<double>(pixels.size()) ||
+        group.size() < kMinExplained)
+      continue;
+    std::vector<std::size_t> points;
+    for (std::uint32_t px : group) points.push_back(static_cast<std::size_t>(prep.image.point[px]));
+    Plane plane;
+    try {
+      plane = fit_plane(prep.points, &points);
+    } catch (const DataError&) {
+      continue;  // on one spot or one line, or a volume: not a face
+    }
+    double sq_sum = 0;
+    for (std::size_t q : points) sq_sum += std::pow(plane.signed_distance(prep.points[q]), 2);
+    if (std::sqrt(sq_sum / static_cast<double>(points.size())) <= kFlatExplains * explain)
+      faces.push_back({plane, normal, std::move(group)});
+  }
+  return faces;
+}
+
+// Whether a flat face's plane goes on well beyond the model's footprint in the image (the owners'
+// pixels and their outline ring, `footprint` of them): a face of the part matched into a larger
+// surface, a plate into the bin's wall beside the floor, where the outline test sees the floor.
+// The plane is grown over 4-connected pixels from the face's, through scene points within
+// `explain` of it and within the diameter of its centroid, not those of a removed plane (a plate
+// lying on the floor is parallel to it, a plate's thickness above).
+bool surface_overhang(const ModelView& view, std::size_t footprint, const FlatFace& face,
+                      const Prepared& prep, double explain, double diameter) {
+  const RangeImage& image = prep.image;
+  const Plane& plane = face.plane;
+  const std::vector<std::uint32_t>& explained_pixels = face.pixels;
   const Eigen::Vector3d& normal = plane.normal;
   const Eigen::Vector3d& mean = plane.point;
   // The flood fill's marks, per thread, cleared after use (the image is large, the fill small).
@@ -369,34 +408,7 @@ bool surface_overhang(const ModelView& view, std::size_t footprint,
   return static_cast<double>(outside) > kOverhangShare * static_cast<double>(inside);
 }
 
-// Whether one of the part's faces the scene explains is a face of a larger surface
-// (surface_overhang): the explained pixels grouped by their model point's normal (within
-// kFaceDeg of the group's first), each group holding kFaceShare of them tested. One face at a
-// time: an L fitted into two surfaces (the bin's inner corner) explains two planes, which the
-// test over all its points would not see as one.
-bool any_face_overhangs(const ModelView& view, const std::vector<Eigen::Vector3d>& n,
-                        const std::vector<std::size_t>& explained_model,
-                        const std::vector<std::uint32_t>& pixels, const Prepared& prep,
-                        double explain, double diameter) {
-  const double min_cos = std::cos(deg_to_rad(kFaceDeg));
-  const auto footprint = static_cast<std::size_t>(
-      std::count_if(view.owner.begin(), view.owner.end(), [](std::int32_t o) { return o >= 0; }));
-  std::vector<std::pair<Eigen::Vector3d, std::vector<std::uint32_t>>> faces;
-  for (std::size_t k = 0; k < pixels.size(); ++k) {
-    const Eigen::Vector3d& normal = n[explained_model[k]];
-    auto face = std::find_if(faces.begin(), faces.end(),
-                             [&](const auto& f) { return f.first.dot(normal) >= min_cos; });
-    if (face == faces.end()) face = faces.insert(faces.end(), {normal, {}});
-    face->second.push_back(pixels[k]);
-  }
-  return std::any_of(faces.begin(), faces.end(), [&](const auto& f) {
-    return static_cast<double>(f.second.size()) >=
-               kFaceShare * static_cast<double>(pixels.size()) &&
-           surface_overhang(view, footprint, f.second, prep, explain, diameter);
-  });
-}
-
-Evidence verify(const PpfModel& model, const Prepared& prep,
+Evidence verify(const PpfModel& model, const KdTree& model_tree, const Prepared& prep,
                 const Eigen::Isometry3d& T_camera_model) {
   const RangeImage& image = prep.image;
   const double voxel = model.voxel;
@@ -413,12 +425,12 @@ Evidence verify(const PpfModel& model, const Prepared& prep,
   ModelView view = view_model(p, n, image, voxel, margin);
   const std::vector<Eigen::Vector2i>& uv = view.uv;
   Evidence ev;
-  std::vector<std::size_t> explained_model;
+  std::vector<std::size_t> explained_model, occluders;  // occluders: the scene points in front
   for (std::size_t i : view.visible) {
     ++ev.visible;
     double best = std::numeric_limits<double>::infinity(), nearest_z = best;
     bool nearest_on_plane = false;
-    std::size_t best_pixel = 0;
+    std::size_t best_pixel = 0, nearest = 0;
     for (int dv = -1; dv <= 1; ++dv)
       for (int du = -1; du <= 1; ++du) {
         const int u = uv[i].x() + du, v = uv[i].y() + dv;
@@ -427,8 +439,10 @@ Evidence verify(const PpfModel& model, const Prepared& prep,
         const std::int32_t q = image.point[at];
         if (q < 0 || !prep.in_range[static_cast<std::size_t>(q)]) continue;
         const Eigen::Vector3d& s = prep.points[static_cast<std::size_t>(q)];
-        if (s.z() < nearest_z)
-          nearest_z = s.z(), nearest_on_plane = prep.on_plane[static_cast<std::size_t>(q)] != 0;
+        if (s.z() < nearest_z) {
+          nearest_z = s.z(), nearest = static_cast<std::size_t>(q);
+          nearest_on_plane = prep.on_plane[nearest] != 0;
+        }
         const double d = (s - p[i]).norm();
         if (d < best) best = d, best_pixel = at;
       }
@@ -445,11 +459,33 @@ Evidence verify(const PpfModel& model, const Prepared& prep,
       ++ev.seen_through;
     } else if (nearest_z < p[i].z() - explain) {
       ++ev.occluded;
+      occluders.push_back(nearest);
     }
   }
   if (!view.visible.empty()) ev.continuation = outline_continuation(view, p, prep, explain, margin);
-  ev.larger_surface =
-      any_face_overhangs(view, n, explained_model, ev.pixels, prep, explain, model.diameter);
+  const std::vector<FlatFace> faces = flat_faces(n, explained_model, ev.pixels, prep, explain);
+  const auto footprint = static_cast<std::size_t>(
+      std::count_if(view.owner.begin(), view.owner.end(), [](std::int32_t o) { return o >= 0; }));
+  ev.larger_surface = std::any_of(faces.begin(), faces.end(), [&](const FlatFace& f) {
+    return surface_overhang(view, footprint, f, prep, explain, model.diameter);
+  });
+  // What hides an occluded point. The part itself, where the points' z-buffer missed it (the
+  // scene point in front lies on the part's surface at the pose): not visible. The surface one of
+  // its own flat faces lies on (on its plane and facing as it does; a neighbour lying on the part
+  // meets that plane only with its sides): the part would lie inside that surface, as behind the
+  // floor (a side fitted into the bin's wall, the rest of the part behind it): seen through.
+  const Eigen::Isometry3d T_model_camera = T_camera_model.inverse();
+  for (std::size_t q : occluders) {
+    const Eigen::Vector3d& x = prep.points[q];
+    if (on_surface(model, model_tree, T_model_camera * x, explain)) {
+      --ev.occluded, --ev.visible;
+    } else if (std::any_of(faces.begin(), faces.end(), [&](const FlatFace& f) {
+                 return std::abs(f.plane.signed_distance(x)) <= explain &&
+                        agrees(prep, x, f.normal, voxel, kFaceDeg);
+               })) {
+      --ev.occluded, ++ev.seen_through;
+    }
+  }
   return ev;
 }
 
@@ -578,12 +614,7 @@ std::vector<std::uint32_t> instance_points(const PpfModel& model, const KdTree& 
       const std::int32_t q = image.point[image.pixel(u, v)];
       if (q < 0 || !prep.in_range[static_cast<std::size_t>(q)]) continue;
       const Eigen::Vector3d m = T_model_camera * prep.points[static_cast<std::size_t>(q)];
-      Neighbor nn;
-      if (!model_tree.nearest(m, nn, 4 * explain * explain)) continue;
-      const Eigen::Vector3d off = m - model.points.positions[nn.index];
-      if (std::abs(model.points.normals[nn.index].dot(off)) <= explain / 2 &&
-          off.norm() <= 2 * explain)
-        out.push_back(static_cast<std::uint32_t>(q));
+      if (on_surface(model, model_tree, m, explain)) out.push_back(static_cast<std::uint32_t>(q));
     }
   std::sort(out.begin(), out.end());
   return out;
@@ -697,7 +728,7 @@ FindResult find(const PpfModel& model, const FindScene& scene, const FindSetting
 
   lap = Clock::now();
   parallel_tasks(hyps.size(), threads, [&](std::size_t h) {
-    hyps[h].evidence = verify(model, prep, hyps[h].T_camera_model);
+    hyps[h].evidence = verify(model, model_tree, prep, hyps[h].T_camera_model);
   });
   std::vector<std::vector<std::uint32_t>> points;
   const std::vector<std::size_t> accepted =
@@ -709,7 +740,7 @@ FindResult find(const PpfModel& model, const FindScene& scene, const FindSetting
     const Eigen::Isometry3d T =
         final_refine(model, model_tree, prep, points[k], h.T_camera_model, settings.cost, out.rms);
     out.T_scene_model = canonical_pose(prep.image.T_cloud_camera * T, result.symmetry);
-    const Evidence ev = verify(model, prep, T);
+    const Evidence ev = verify(model, model_tree, prep, T);
     out.score = ev.score(std::min(ev.explained, h.evidence.explained));
     out.visible_fraction = ev.visible_fraction();
     out.points = instance_points(model, model_tree, prep, T);

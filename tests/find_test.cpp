@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <numbers>
 #include <stdexcept>
+#include <tuple>
 
 #include "align3d/error.hpp"
 #include "align3d/instance_match.hpp"
@@ -23,8 +24,12 @@ namespace {
 namespace fs = std::filesystem;
 using synth::BinPart;
 
+// The scene as `align3d synth --scene bin` writes it and `align3d find` reads it: the PCD stores
+// float32 coordinates.
 FindScene scene_of(const synth::BinPickingScene& s) {
-  return organized_scene(s.cloud.positions, static_cast<std::size_t>(s.cloud.width),
+  std::vector<Eigen::Vector3d> image = s.cloud.positions;
+  for (Eigen::Vector3d& p : image) p = p.cast<float>().cast<double>();
+  return organized_scene(image, static_cast<std::size_t>(s.cloud.width),
                          static_cast<std::size_t>(s.cloud.height));
 }
 
@@ -37,9 +42,10 @@ struct Scored {
 // Finds the part in a generated scene and scores the poses against the truth (BOP: ADD-S below
 // 10 % of the diameter; instances at least half visible count).
 Scored find_and_score(BinPart part, int instances, std::uint64_t seed, int threads = 2,
-                      const CostSettings& cost = {}) {
+                      const CostSettings& cost = {}, int distractors = 3) {
   synth::BinPickingSettings bs;
   bs.part = part, bs.instances = instances, bs.seed = seed, bs.threads = threads;
+  bs.distractors = distractors;
   const synth::BinPickingScene scene = synth::make_bin_picking_scene(bs);
   const PpfModel model = build_find_model(scene.model, kFindVoxelFraction, threads);
   FindSettings fs;
@@ -161,6 +167,23 @@ TEST(Find, FindsPartsPartlyUnderTheirNeighbours) {
   }
   EXPECT_GE(covered, 2u);  // the scene holds such parts (else the test proves nothing)
   EXPECT_EQ(s.match.false_positives, 0u);
+}
+
+// A face of the part fitted into the bin's inner wall, the rest of the part behind the wall (seen
+// at a grazing angle, the wall beyond the part's outline is too narrow a strip for the larger-
+// surface test), is not reported: what hides the part is the surface it lies on. And the parts
+// the camera sees whole are found, though the points' z-buffer leaves some of their own far
+// faces behind their near ones (which must not count as hidden by that face's plane). Two scenes
+// of bench/compare_find.py's development sets (seeds 704 and 718), where such poses scored 0.60
+// and 0.80 before.
+TEST(Find, APartsFaceInTheBinsWallIsNoInstance) {
+  for (const auto& [seed, instances, distractors] :
+       {std::tuple{704, 3, 5}, std::tuple{718, 4, 5}}) {
+    const Scored s = find_and_score(BinPart::kBracket, instances, seed, 2, {}, distractors);
+    EXPECT_EQ(s.match.false_positives, 0u) << "seed " << seed;
+    EXPECT_EQ(s.match.true_positives, s.match.counted) << "seed " << seed;
+    EXPECT_GE(s.match.counted, 3u);
+  }
 }
 
 TEST(Find, ReportsEachTurnedPartOnceInCanonicalPose) {

@@ -20,16 +20,18 @@
 //      see at the pose (facing it, not hidden behind the part itself) are compared with the scene
 //      at their pixels. Explained: a scene point within a distance; seen through: the scene lies
 //      farther, so the hypothesised part would hide it (free-space violation), or a removed
-//      plane (the floor) lies in front, so the part would be inside it; occluded: something
-//      else lies in front; missing: no return. Outline continuation: the share of the ring
-//      just outside the part's outline where the scene surface goes on without a depth edge (a
-//      face fitted into a box's top, the floor or a wall). Explained needs the scene's normal
-//      there within 45° of the model's, and the outline counts only where the part is explained
-//      (a neighbour lying on it is no evidence). score = (explained − seen through) / (visible −
-//      missing − occluded) − continuation: what a part partly under its neighbours shows is judged
-//      as a whole part's; visible_fraction = 1 − occluded / (visible − missing). A pose scores
-//      −1 when it is less than 40 % visible, or when the scene points one of its faces explains
-//      (grouped by the model normal, within 20°; a face holding a quarter of the explained
+//      plane (the floor) lies in front, or the surface one of its own flat faces lies on (a side
+//      fitted into the bin's wall), so the part would be inside it; occluded: something else lies
+//      in front (a scene point on the part's own surface at the pose means the part hides that
+//      point itself: not counted as visible); missing: no return. Outline continuation: the share
+//      of the ring just outside the part's outline where the scene surface goes on without a depth
+//      edge (a face fitted into a box's top, the floor or a wall). Explained needs the scene's
+//      normal there within 45° of the model's, and the outline counts only where the part is
+//      explained (a neighbour lying on it is no evidence). score = (explained − seen through) /
+//      (visible − missing − occluded) − continuation: what a part partly under its neighbours shows
+//      is judged as a whole part's; visible_fraction = 1 − occluded / (visible − missing). A pose
+//      scores −1 when it is less than 40 % visible, or when the scene points one of its faces
+//      explains (grouped by the model normal, within 20°; a face holding a quarter of the explained
 //      points) lie on one plane (RMS below a third of the explain distance) that, grown through
 //      the depth image, covers more than half as many pixels outside the part's outline as
 //      inside: a face of the part matched into a larger surface (a plate into the bin's wall,
