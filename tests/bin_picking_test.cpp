@@ -39,7 +39,15 @@ TEST(BinPickingMeshes, SolidsAreClosedOutwardWithTheirVolumes) {
   // A clockwise profile gives the same solid, outward too.
   expect_closed_outward(revolve({{1, 0}, {1, 1}, {2, 1}, {2, 0}}, 8), polygon_factor(8) * 3, 1e-9);
   EXPECT_THROW(revolve({{0, 0}, {1, 0}, {1, 1}}, 8), std::invalid_argument);
-  EXPECT_EQ(bin_part_from_string("flange"), BinPart::kFlange);
+  // The plate: its block less the chamfers (4 edges' prisms of leg²/2, less the 4 corners' leg³/3
+  // counted twice), the slot and the holes' 64-gons, plus the boss's.
+  const double chamfers = 1.5 * 1.5 / 2 * 2 * (110 + 70) - 4 * std::pow(1.5, 3) / 3;
+  expect_closed_outward(bin_part_mesh(BinPart::kPlate),
+                        110 * 70 * 10 - chamfers - 30 * 16 * 4 -
+                            polygon_factor(64) * (4 * 4 * 6 + 5 * 5 * 10 - 7 * 7 * 4),
+                        1e-6);
+  for (const BinPart part : {BinPart::kBracket, BinPart::kFlange, BinPart::kPlate})
+    EXPECT_EQ(bin_part_from_string(to_string(part)), part);
   EXPECT_THROW(bin_part_from_string("gear"), std::invalid_argument);
 }
 
@@ -95,7 +103,7 @@ TEST_P(BinPickingScenes, PixelsLieOnTheirInstanceAndInstancesApart) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Parts, BinPickingScenes,
-                         ::testing::Values(BinPart::kBracket, BinPart::kFlange),
+                         ::testing::Values(BinPart::kBracket, BinPart::kFlange, BinPart::kPlate),
                          [](const auto& info) { return std::string(to_string(info.param)); });
 
 TEST(BinPickingScene, SameSeedSameBitsAtAnyThreadCount) {

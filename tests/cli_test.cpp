@@ -757,6 +757,23 @@ TEST(CliSynth, BinSceneReadsBackOrganizedWithItsGroundTruth) {
     EXPECT_EQ(read_text(again / f), read_text(d / f)) << f;
 }
 
+// A bin with no part in it (the plate's, among distractors): `align3d find` exits with 0, says
+// so, and its report lists no instance (issue 16: an empty result is an answer, not an error).
+TEST(CliFind, AnEmptyBinIsExitCodeZeroAndAnEmptyList) {
+  test::TempDir d("find_empty");
+  ASSERT_EQ(run({"synth", "--scene", "bin", d.path().string(), "--part", "plate", "--instances",
+                 "0", "--distractors", "4"})
+                .code,
+            0);
+  const CliRun r = run({"find", (d / "model.stl").string(), (d / "scene.pcd").string(), "--report",
+                        (d / "found.json").string(), "--threads", "2"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("found 0 instance"), std::string::npos) << r.out;
+  const auto j = nlohmann::json::parse(read_text(d / "found.json"));
+  EXPECT_TRUE(j["instances"].is_array());
+  EXPECT_TRUE(j["instances"].empty());
+}
+
 TEST(CliSynth, ViewsWritePosesAndPairsThatAgree) {
   test::TempDir d("synth_views");
   const CliRun r =

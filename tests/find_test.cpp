@@ -136,19 +136,40 @@ TEST(Symmetry, CanonicalPoseIsTheSameForEveryEquivalentPose) {
   EXPECT_EQ(parse_symmetry("z:6", PointCloud{}).order, 6);
 }
 
-TEST(Find, FindsTheBracketsOfAFixedSceneSet) {
+// Issue 16's targets on a fixed set chosen beforehand (seeds 1–4, 6 parts and 3 distractors a
+// bin, both parts: 45 instances at least half visible): recall and precision of 0.95 less the
+// sampling error of so few instances (±0.03 at one σ; two σ: 0.9 for the recall), precision
+// 0.95 as is. The bench (bench/compare_find.py, 24 scenes, and 108 development and held-out ones)
+// measures the rates themselves.
+TEST(Find, FindsBothPartsOfAFixedSceneSet) {
   std::size_t tp = 0, fp = 0, counted = 0;
-  for (const std::uint64_t seed : {1, 7}) {
-    const Scored s = find_and_score(BinPart::kBracket, 6, seed);
-    tp += s.match.true_positives, fp += s.match.false_positives, counted += s.match.counted;
-    for (const auto& f : s.result.instances) {
-      EXPECT_GE(f.score, kFindMinScore);  // as scored at the reported pose
-      EXPECT_FALSE(f.points.empty());
+  for (const BinPart part : {BinPart::kBracket, BinPart::kFlange})
+    for (const std::uint64_t seed : {1, 2, 3, 4}) {
+      const Scored s = find_and_score(part, 6, seed);
+      tp += s.match.true_positives, fp += s.match.false_positives, counted += s.match.counted;
+      for (const auto& f : s.result.instances) {
+        EXPECT_GE(f.score, kFindMinScore);  // as scored at the reported pose
+        EXPECT_FALSE(f.points.empty());
+      }
     }
+  EXPECT_GE(counted, 40u);
+  EXPECT_GE(static_cast<double>(tp), 0.9 * static_cast<double>(counted)) << tp << "/" << counted;
+  EXPECT_GE(static_cast<double>(tp), 0.95 * static_cast<double>(tp + fp)) << tp << " / " << fp;
+}
+
+// A mostly flat part (the plate: two 110 × 70 faces, 10 mm apart, small features) is not matched
+// into the bin's floor or walls, the planes it resembles most: no false positive in four bins of
+// six plates, and the plates are found (at least half of them: those standing on an edge show
+// the camera a 10 mm strip and a face at a grazing angle, bench/README.md).
+TEST(Find, AFlatPartIsNotMatchedIntoTheFloorOrTheWalls) {
+  std::size_t tp = 0, counted = 0;
+  for (const std::uint64_t seed : {1, 2, 3, 4}) {
+    const Scored s = find_and_score(BinPart::kPlate, 6, seed, 2, {}, 0);
+    EXPECT_EQ(s.match.false_positives, 0u) << "seed " << seed;
+    tp += s.match.true_positives, counted += s.match.counted;
   }
-  // The fixed set's bar, below the issue's targets (0.95 / 0.95) which are not met yet.
-  EXPECT_GE(static_cast<double>(tp), 0.7 * static_cast<double>(counted)) << tp << "/" << counted;
-  EXPECT_GE(static_cast<double>(tp), 0.8 * static_cast<double>(tp + fp)) << tp << " / " << fp;
+  EXPECT_GE(counted, 20u);
+  EXPECT_GE(2 * tp, counted) << tp << "/" << counted;
 }
 
 // Parts partly under their neighbours (60–90 % visible) are found: the score judges what the

@@ -76,7 +76,8 @@ def synth(
     ``plate_cluttered.ply``; ``variant`` picks a harder geometry: ``wide-plane``,
     ``small-features``, ``large-offset``, ``extreme``), ``"parts"`` (a work cell of ``points``
     points a cloud), ``"bin"`` (an organized depth image ``scene.pcd`` of a bin into which ``instances`` copies of
-    ``part`` — ``"bracket"``, no symmetry, or ``"flange"``, rotationally symmetric — and
+    ``part`` — ``"bracket"``, no symmetry, ``"flange"``, rotationally symmetric, or ``"plate"``,
+    mostly flat — and
     ``distractors`` other objects were dropped; ``model.stl``, each instance's pose and visible
     fraction) or
     ``"views"`` (``views`` range scans of an object, the first at ``azimuth``, then every

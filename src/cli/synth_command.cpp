@@ -197,10 +197,11 @@ Command add_synth(CLI::App& app, Streams io) {
       ->check(CLI::Range(0, 12))
       ->capture_default_str();
   sub->add_option("--part", o->part,
-                  "The part in the bin (--scene bin): bracket (no symmetry) or flange (turned, "
-                  "rotationally symmetric); the scanned object (--scene stitch): bracket or "
-                  "flange (keyed by three lugs: near-symmetric)")
-      ->check(CLI::IsMember({"bracket", "flange"}))
+                  "The part in the bin (--scene bin): bracket (no symmetry), flange (turned, "
+                  "rotationally symmetric) or plate (mostly flat, 110x70x10 with small features); "
+                  "the scanned object (--scene stitch): bracket or flange (keyed by three lugs: "
+                  "near-symmetric)")
+      ->check(CLI::IsMember({"bracket", "flange", "plate"}))
       ->capture_default_str();
   sub->add_option("--distractors", o->distractors,
                   "Boxes, cylinders and spheres dropped among the parts (--scene bin)")

@@ -230,12 +230,22 @@ std::vector<int> drop_order(int instances, int distractors, Random& rng) {
 
 }  // namespace
 
-const char* to_string(BinPart part) { return part == BinPart::kBracket ? "bracket" : "flange"; }
+const char* to_string(BinPart part) {
+  switch (part) {
+    case BinPart::kBracket:
+      return "bracket";
+    case BinPart::kFlange:
+      return "flange";
+    case BinPart::kPlate:
+      return "plate";
+  }
+  return "?";
+}
 
 BinPart bin_part_from_string(const std::string& name) {
-  if (name == "bracket") return BinPart::kBracket;
-  if (name == "flange") return BinPart::kFlange;
-  throw std::invalid_argument("unknown part '" + name + "' (bracket or flange)");
+  for (const BinPart part : {BinPart::kBracket, BinPart::kFlange, BinPart::kPlate})
+    if (name == to_string(part)) return part;
+  throw std::invalid_argument("unknown part '" + name + "' (bracket, flange or plate)");
 }
 
 TriangleMesh box_mesh(const Eigen::Vector3d& h) {
@@ -330,8 +340,22 @@ TriangleMesh sphere_mesh(double radius, int rings) {
   return m;
 }
 
+// The plate of the header: the machined part's description with a plate's sizes.
+PartSettings bin_plate_settings() {
+  PartSettings s;
+  s.block = {110, 70, 10};
+  s.chamfer = 1.5;
+  s.pocket_min = {-40, -8}, s.pocket_max = {-10, 8};
+  s.pocket_depth = 4;
+  s.holes = {{{-25, 0}, 4}, {{35, -22}, 5}};
+  s.boss_centre = {30, 18};
+  s.boss_radius = 7, s.boss_height = 4;
+  return s;
+}
+
 TriangleMesh bin_part_mesh(BinPart part, int flange_segments) {
   if (part == BinPart::kBracket) return PartModel().mesh();
+  if (part == BinPart::kPlate) return PartModel(bin_plate_settings()).mesh();
   // Counter-clockwise in (r, z): bore, bottom, flange rim, flange top, hub, hub top.
   return revolve({{12, 0}, {45, 0}, {45, 10}, {25, 10}, {25, 50}, {12, 50}}, flange_segments);
 }

@@ -11,6 +11,10 @@
 //            10 thick; hub r 25 up to z = 50; bore r 12 through; every circle a regular polygon
 //            of `flange_segments` sides, so its symmetry is continuous for matching purposes
 //            (rotation about z by any angle moves the surface by at most r·(1 − cos(π/n))).
+//   plate    a mostly flat part: the machined part of synth/part.hpp as a 110 × 70 × 10 mounting
+//            plate (bin_plate_settings(): 1.5 mm chamfer, a 30 × 16 slot 4 deep with a hole r 4
+//            through it, a hole r 5, a boss r 7 standing 4 high): no symmetry, its features small
+//            beside its two large faces (what makes flat parts prone to false matches on planes).
 // Distractors: boxes, cylinders and spheres (as meshes) of 30–110 mm, not the part.
 #pragma once
 
@@ -22,16 +26,19 @@
 #include "align3d/mesh.hpp"
 #include "align3d/plane/plane.hpp"
 #include "align3d/synth/camera.hpp"
+#include "align3d/synth/part.hpp"
 
 namespace align3d::synth {
 
-enum class BinPart : std::uint8_t { kBracket, kFlange };
-const char* to_string(BinPart part);
-// "bracket" or "flange"; std::invalid_argument otherwise.
+enum class BinPart : std::uint8_t { kBracket, kFlange, kPlate };
+const char* to_string(BinPart part);  // "bracket", "flange" or "plate"
+// "bracket", "flange" or "plate"; std::invalid_argument otherwise.
 BinPart bin_part_from_string(const std::string& name);
 
 // The part's closed, outward-wound mesh in its model frame (header).
 TriangleMesh bin_part_mesh(BinPart part, int flange_segments = 64);
+// The plate's description (header): the machined part's settings with a plate's sizes.
+PartSettings bin_plate_settings();
 
 // Closed, outward-wound meshes of simple solids, centred on the origin: a box of the given half
 // sizes; a cylinder of radius r and half height h about z (`segments` sides); a sphere of radius r
