@@ -408,6 +408,30 @@ bool surface_overhang(const ModelView& view, std::size_t footprint, const FlatFa
   return static_cast<double>(outside) > kOverhangShare * static_cast<double>(inside);
 }
 
+// What hides each occluded model point (`occluders`: the scene point in front of each). The part
+// itself, where the points' z-buffer missed it (the scene point lies on the part's surface at the
+// pose): not visible. The surface one of its own flat faces lies on (on its plane and facing as it
+// does; a neighbour lying on the part meets that plane only with its sides): the part would lie
+// inside that surface, as behind the floor (a side fitted into the bin's wall, the rest of the
+// part behind it): seen through. Anything else stays occluded.
+void reclassify_occluded(const PpfModel& model, const KdTree& model_tree, const Prepared& prep,
+                         const Eigen::Isometry3d& T_model_camera,
+                         const std::vector<FlatFace>& faces,
+                         const std::vector<std::size_t>& occluders, Evidence& ev) {
+  const double explain = kExplainVoxels * model.voxel;
+  for (std::size_t q : occluders) {
+    const Eigen::Vector3d& x = prep.points[q];
+    if (on_surface(model, model_tree, T_model_camera * x, explain)) {
+      --ev.occluded, --ev.visible;
+    } else if (std::any_of(faces.begin(), faces.end(), [&](const FlatFace& f) {
+                 return std::abs(f.plane.signed_distance(x)) <= explain &&
+                        agrees(prep, x, f.normal, model.voxel, kFaceDeg);
+               })) {
+      --ev.occluded, ++ev.seen_through;
+    }
+  }
+}
+
 Evidence verify(const PpfModel& model, const KdTree& model_tree, const Prepared& prep,
                 const Eigen::Isometry3d& T_camera_model) {
   const RangeImage& image = prep.image;
@@ -469,23 +493,7 @@ Evidence verify(const PpfModel& model, const KdTree& model_tree, const Prepared&
   ev.larger_surface = std::any_of(faces.begin(), faces.end(), [&](const FlatFace& f) {
     return surface_overhang(view, footprint, f, prep, explain, model.diameter);
   });
-  // What hides an occluded point. The part itself, where the points' z-buffer missed it (the
-  // scene point in front lies on the part's surface at the pose): not visible. The surface one of
-  // its own flat faces lies on (on its plane and facing as it does; a neighbour lying on the part
-  // meets that plane only with its sides): the part would lie inside that surface, as behind the
-  // floor (a side fitted into the bin's wall, the rest of the part behind it): seen through.
-  const Eigen::Isometry3d T_model_camera = T_camera_model.inverse();
-  for (std::size_t q : occluders) {
-    const Eigen::Vector3d& x = prep.points[q];
-    if (on_surface(model, model_tree, T_model_camera * x, explain)) {
-      --ev.occluded, --ev.visible;
-    } else if (std::any_of(faces.begin(), faces.end(), [&](const FlatFace& f) {
-                 return std::abs(f.plane.signed_distance(x)) <= explain &&
-                        agrees(prep, x, f.normal, voxel, kFaceDeg);
-               })) {
-      --ev.occluded, ++ev.seen_through;
-    }
-  }
+  reclassify_occluded(model, model_tree, prep, T_camera_model.inverse(), faces, occluders, ev);
   return ev;
 }
 
