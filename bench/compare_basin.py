@@ -139,9 +139,14 @@ def run_scene(align3d, o3d, scene, angles, shifts, trials, seed, threads, index,
                 results = {}
                 for m in ALIGN3D_METHODS:
                     t0 = time.perf_counter()
-                    r = align3d.register(moved, scene["target"], init="identity", method=m,
-                                         threads=threads, seed=seed)
-                    results[f"align3d {m}"] = (r.transformation, time.perf_counter() - t0)
+                    try:
+                        T = align3d.register(moved, scene["target"], init="identity", method=m,
+                                             threads=threads, seed=seed).transformation
+                    except align3d.Error as e:  # no solution: a failure of this trial
+                        print(f"{scene['name']} {m} {angle} deg {shift:.2f} L trial {k}: {e}",
+                              file=sys.stderr)
+                        T = np.eye(4)
+                    results[f"align3d {m}"] = (T, time.perf_counter() - t0)
                 for (kind, D), name in zip(OPEN3D_RUNS if peers else [],
                                            names[len(ALIGN3D_METHODS):]):
                     t0 = time.perf_counter()

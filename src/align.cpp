@@ -141,6 +141,9 @@ class Pipeline {
       source_fixed_ = std::make_unique<RefineTarget>(source, s.refine.normals, s.threads);
     refine_ = s.refine;
     refine_.threads = s.threads;
+    // Basin hopping only where ICP is all there is: with a global stage (init auto, global) an
+    // unconfirmed pose is the global stage's to mend, and hops would only add time.
+    refine_.hop = s.refine.hop && (s.init == InitPolicy::kIdentity || s.init == InitPolicy::kPose);
     global_ = s.global;
     global_.threads = s.threads;
     global_.seed = s.seed;

@@ -8,7 +8,7 @@ namespace detail {
 TargetSide::TargetSide(const PointCloud& target, const NormalSettings& normals, int threads,
                        bool shared)
     : refine(target, normals, threads),
-      scale{refine.extent(), refine.spacing(), surface_noise(refine.cloud(), refine.tree())},
+      scale{refine.extent(), refine.spacing(), refine.noise()},
       global(refine.cloud()),
       shared(shared) {
   if (shared) refine.estimate_all_normals();
@@ -16,7 +16,7 @@ TargetSide::TargetSide(const PointCloud& target, const NormalSettings& normals, 
 
 TargetSide::TargetSide(std::shared_ptr<const MeshIndex> surface, int threads, bool shared)
     : refine(std::move(surface), threads),
-      scale{refine.extent(), refine.spacing(), surface_noise(refine.cloud(), refine.tree())},
+      scale{refine.extent(), refine.spacing(), refine.noise()},
       global(refine.cloud()),
       shared(shared) {
   if (shared) refine.estimate_all_normals();

@@ -379,8 +379,8 @@ def register(
       array or a transform file (ICP starts there).
     - ``method``: the final ICP metric, ``"point-to-plane"``, ``"point-to-point"``, ``"gicp"``
       (plane-to-plane with per-point covariances, as small_gicp) or ``"symmetric"``
-      (Rusinkiewicz 2019; it also runs the coarse stages). gicp and symmetric need SOURCE's
-      normals: estimated when it has none.
+      (Rusinkiewicz 2019); with ``reject="auto"`` the coarse stages are point-to-plane whatever
+      the method. gicp and symmetric need SOURCE's normals: estimated when it has none.
     - ``kernel``: the robust kernel weighing ICP's pairs, ``"auto"`` (the schedule's own),
       ``"none"``, ``"huber"``, ``"cauchy"``, ``"geman-mcclure"``, ``"tukey"`` or ``"welsch"``;
       ``kernel_scale``: its scale (data units; 0: from the noise).

@@ -153,7 +153,7 @@ void add_strict(CLI::App* sub, bool& strict) {
 }
 
 RefineHelp schedule_refine_help() {
-  return {"the final stage of the coarse-to-fine schedule (symmetric also runs its coarse stages)",
+  return {"the final stage of the coarse-to-fine schedule (its coarse stages are point-to-plane)",
           "the schedule's own (Geman-McClure at half the stage's reach; none with a fixed --reject "
           "rule)"};
 }

@@ -83,6 +83,7 @@ IcpResult run_icp(const PointCloud& source, const Target& target, const Eigen::I
   // pairs and system are exact without a separate final pass: n updates cost n + 1 searches.
   IcpResult result;
   result.T_target_source = init;
+  result.centre = centre;
   Correspondences c;
   double threshold = 0, kernel_scale = 0;
   double previous_rms = std::numeric_limits<double>::quiet_NaN();

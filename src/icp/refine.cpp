@@ -8,6 +8,7 @@
 
 #include "align3d/cloud_stats.hpp"
 #include "align3d/error.hpp"
+#include "align3d/icp/degeneracy.hpp"
 
 namespace align3d {
 namespace {
@@ -152,11 +153,17 @@ void RefineTarget::estimate_all_normals() {
   }
   spacing();
   extent();
+  noise();
 }
 
 double RefineTarget::extent() {
   if (extent_ < 0) extent_ = robust_extent(cloud_);
   return extent_;
+}
+
+double RefineTarget::noise() {
+  if (noise_ < 0) noise_ = surface_noise(cloud_, *tree_);
+  return noise_;
 }
 
 double RefineTarget::spacing() {
@@ -166,12 +173,95 @@ double RefineTarget::spacing() {
 
 namespace {
 
-// The `auto` schedule (refine.hpp): coarse stages at a shrinking τ, then the final stage with
-// `last` (method, termination, threads, and the kernel when one was asked for).
+// Where the coarse stages (step 2 of refine.hpp) end: the pose, σ̂ (the last stage's RMS) and that
+// stage's system (zero when no stage ran).
+struct CoarseEnd {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  double sigma = 0;
+  Matrix6d hessian = Matrix6d::Zero();
+};
+
+// Step 2 from `init`: point-to-plane at τ = L/8, halved per stage down to `floor`.
 template <class Run>
+CoarseEnd coarse_stages(const PointCloud& source, const Eigen::Isometry3d& init, double diagonal,
+                        double floor, IcpSettings coarse, Run&& run) {
+  CoarseEnd end;
+  end.T = init;
+  double tau = kStartFraction * diagonal;
+  for (int stage = 0; stage < kMaxStages && tau > floor; ++stage, tau *= kShrink) {
+    coarse.rejection = RejectionRule::max_distance(tau);
+    coarse.kernel_scale = kKernelFraction * tau;
+    const IcpResult r = run(source, end.T, coarse);
+    if (r.stop_reason == StopReason::kTooFewCorrespondences) break;
+    end.T = r.T_target_source;
+    end.sigma = r.rms;  // the plane distance's RMS: the noise along the normal once settled
+    end.hessian = r.hessian;
+  }
+  return end;
+}
+
+// Step 3 of refine.hpp, basin hopping: `end` when its pose is confirmed (RMS within `reach` at
+// most kHopRms × σ₀, σ₀ at least `min_noise`), else the coarse stages are rerun (`again`) from hops
+// along the weakest direction of its system and the start that pairs clearly more source points
+// within `reach` is kept; from a kept pose that is still unconfirmed, the hops go on (at most
+// kHopChain times). The hops' stages are recorded with StageRecord::hop.
+template <class Again, class Measure>
+CoarseEnd hop_basins(const PointCloud& source, RefineTarget& target, const CoarseEnd& end,
+                     double reach, double min_noise, int threads, RefineResult& out, Again&& again,
+                     Measure&& measure) {
+  IcpResult here = measure(end.T, reach);
+  const double sq_target_noise = target.noise() * target.noise();
+  double sq_source_noise = 0;  // σ₀ ≥ the target's noise: the source's is measured when in doubt
+  auto unconfirmed = [&] {
+    const double noise = std::max(min_noise, std::sqrt(sq_source_noise + sq_target_noise));
+    return here.rms > kHopRms * noise;
+  };
+  if (!unconfirmed()) return end;
+  {
+    const KdTree tree(source.positions, threads);
+    sq_source_noise = std::pow(surface_noise(source, tree), 2);
+  }
+  const double margin = kHopMargin * static_cast<double>(source.size());
+  CoarseEnd best = end;
+  for (int chain = 0; chain < kHopChain && unconfirmed(); ++chain) {
+    const SystemAnalysis system = analyse_system(best.hessian);
+    if (!system.usable) break;
+    // The weakest eigenvector y of the dimensionless system (a unit of it turns by 1 rad or moves
+    // by the lever arm ℓ = 1 / scale(0), analyse_system) as the update (ω, v) = ℓ · scale ⊙ y about
+    // the system's centre, times the hop's size.
+    const Vector6d unit = system.scale.cwiseProduct(system.vectors.col(0)) / system.scale(0);
+    const Eigen::Translation3d to_world(here.centre);
+    const CoarseEnd from = best;
+    bool kept = false;
+    for (int round = 1; round <= kHopRounds && !kept; ++round)
+      for (const double sign : {1.0, -1.0}) {
+        const Eigen::Isometry3d start =
+            to_world * se3_exp(sign * round * kHopStep * unit) * to_world.inverse() * from.T;
+        const std::size_t first = out.stages.size();
+        const CoarseEnd hopped = again(start);
+        ++out.hops;
+        for (std::size_t k = first; k < out.stages.size(); ++k) out.stages[k].hop = true;
+        IcpResult there = measure(hopped.T, reach);
+        if (static_cast<double>(there.correspondences) >
+            static_cast<double>(here.correspondences) + margin) {
+          best = hopped;
+          here = std::move(there);
+          kept = true;
+        }
+      }
+    if (!kept) break;
+    out.hopped = true;
+  }
+  return best;
+}
+
+// The `auto` schedule (refine.hpp): coarse stages at a shrinking τ, basin hopping when their pose
+// is not confirmed, then the final stage with `last` (method, termination, threads, and the kernel
+// when one was asked for). `measure` evaluates a pose without moving it (an ICP run of no update).
+template <class Run, class Measure>
 void refine_schedule(const PointCloud& source, RefineTarget& target, const Eigen::Isometry3d& init,
-                     const RefineSettings& settings, IcpSettings last, RefineResult& out,
-                     Run&& run) {
+                     const RefineSettings& settings, IcpSettings last, RefineResult& out, Run&& run,
+                     Measure&& measure) {
   // L: the extent of the object, the smaller of the two clouds (cloud_stats.hpp), so that a part
   // registered into a wide scene is not pulled by clutter within an eighth of the scene's size. A
   // cloud of duplicated points has no measurable spacing; fall back to a fine fraction of L.
@@ -183,24 +273,23 @@ void refine_schedule(const PointCloud& source, RefineTarget& target, const Eigen
   const PointCloud thin = thinned(source);
   const PointCloud& coarse_source = thin.empty() ? source : thin;
 
-  Eigen::Isometry3d T = init;
   IcpSettings coarse = last;
   coarse.covariance = false;
-  coarse.method =
-      settings.method == IcpMethod::kSymmetric ? IcpMethod::kSymmetric : IcpMethod::kPointToPlane;
+  coarse.method = IcpMethod::kPointToPlane;
   coarse.termination = {kCoarseIterations, 1e-4, true, 1e-5, 1e-6};
   coarse.kernel = RobustKernel::kGemanMcClure;
-  double sigma = 0;
-  double tau = kStartFraction * diagonal;
-  for (int stage = 0; stage < kMaxStages && tau > floor; ++stage, tau *= kShrink) {
-    coarse.rejection = RejectionRule::max_distance(tau);
-    coarse.kernel_scale = kKernelFraction * tau;
-    const IcpResult r = run(coarse_source, T, coarse);
-    if (r.stop_reason == StopReason::kTooFewCorrespondences) break;
-    T = r.T_target_source;
-    sigma = r.rms;  // the plane distance's RMS: the noise along the normal once settled
-  }
-  tau = std::max(floor, kFinalSigmas * sigma);
+  CoarseEnd end = coarse_stages(coarse_source, init, diagonal, floor, coarse, run);
+  if (settings.hop)
+    end = hop_basins(
+        coarse_source, target, end, std::max(floor, kFinalSigmas * end.sigma), 0.05 * spacing,
+        coarse.threads, out,
+        [&](const Eigen::Isometry3d& start) {
+          return coarse_stages(coarse_source, start, diagonal, floor, coarse, run);
+        },
+        [&](const Eigen::Isometry3d& T, double reach) { return measure(coarse_source, T, reach); });
+  Eigen::Isometry3d T = end.T;
+  const double sigma = end.sigma;
+  double tau = std::max(floor, kFinalSigmas * sigma);
   if (target.surface()) tau = noise_stages(coarse_source, *target.surface(), tau, coarse, T, run);
   last.rejection = RejectionRule::max_distance(tau);
   if (!settings.kernel) {
@@ -245,7 +334,7 @@ RefineResult refine(const PointCloud& given_source, RefineTarget& target,
             " needs at least the normal neighbourhood k = " + std::to_string(target.normal_k()));
   PointCloud copy;
   const PointCloud& source = with_normals(given_source, settings, copy);
-  auto run = [&](const PointCloud& from, const Eigen::Isometry3d& T, const IcpSettings& s) {
+  auto unrecorded = [&](const PointCloud& from, const Eigen::Isometry3d& T, const IcpSettings& s) {
     IcpResult r = target.surface() ? icp(from, *target.surface(), T, s)
                   : normals        ? icp(from, *normals, T, s)
                                    : icp(from, target.cloud(), target.tree(), T, s);
@@ -253,6 +342,10 @@ RefineResult refine(const PointCloud& given_source, RefineTarget& target,
       out.estimated_normals = normals->estimated();
       out.undefined_normals = normals->undefined();
     }
+    return r;
+  };
+  auto run = [&](const PointCloud& from, const Eigen::Isometry3d& T, const IcpSettings& s) {
+    IcpResult r = unrecorded(from, T, s);
     append(out, r, s);
     return r;
   };
@@ -271,7 +364,17 @@ RefineResult refine(const PointCloud& given_source, RefineTarget& target,
     out.icp = run(source, init, last);
     return out;
   }
-  refine_schedule(source, target, init, settings, last, out, run);
+  // A pose as the schedule judges it (refine.hpp, step 3): the point-to-plane pairs within
+  // `reach`, unweighted, and their RMS; no update.
+  IcpSettings measured;
+  measured.method = IcpMethod::kPointToPlane;
+  measured.termination.max_iterations = 0;
+  measured.threads = settings.threads;
+  auto measure = [&](const PointCloud& from, const Eigen::Isometry3d& T, double reach) {
+    measured.rejection = RejectionRule::max_distance(reach);
+    return unrecorded(from, T, measured);
+  };
+  refine_schedule(source, target, init, settings, last, out, run, measure);
   return out;
 }
 

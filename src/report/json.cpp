@@ -17,7 +17,8 @@ nlohmann::json refine_json(const RefineResult& r) {
     stages.push_back({{"metric", s.metric},
                       {"max_distance", s.max_distance},
                       {"first_iteration", s.first_iteration},
-                      {"iterations", s.iterations}});
+                      {"iterations", s.iterations},
+                      {"hop", s.hop}});
   nlohmann::json weak = nlohmann::json::array();
   for (const auto& w : r.icp.degenerate_directions)
     weak.push_back({{"rotation", to_json(w.rotation)},
@@ -32,7 +33,9 @@ nlohmann::json refine_json(const RefineResult& r) {
           {"degenerate_directions", weak},
           {"normals", {{"estimated", r.estimated_normals}, {"undefined", r.undefined_normals}}},
           {"history", history},
-          {"stages", stages}};
+          {"stages", stages},
+          {"hops", r.hops},
+          {"hopped", r.hopped}};
 }
 
 nlohmann::json init_json(const AlignResult& r, const AlignSettings& s) {

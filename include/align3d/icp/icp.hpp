@@ -47,10 +47,13 @@ struct IcpResult {
   std::size_t correspondences = 0;       // kept pairs
   double fitness = 0;                    // kept pairs ÷ source points (Open3D's meaning)
   std::vector<IterationRecord> history;  // iterations + 1 evaluations, the last at the result
-  // The method's system at the returned pose (H of Σ w r², in the frame centred on the target
-  // centroid, unknowns ω then v; ã then t̃ for symmetric) for judging which directions the data
-  // constrains; zero for point-to-point.
+  // The method's system at the returned pose (H of Σ w r², in the frame centred on `centre`,
+  // unknowns ω then v; ã then t̃ for symmetric) for judging which directions the data constrains;
+  // zero for point-to-point.
   Matrix6d hessian = Matrix6d::Zero();
+  // The point the system's unknowns are taken about: the target's centroid (a mesh: the centre of
+  // its bounding box). An update (ω, v) moves x to x + ω × (x − centre) + v.
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
   // Directions of that system the data leaves (nearly) free, weakest first (icp/degeneracy.hpp):
   // every update but point-to-point's is solved without moving along them. Empty when all six are
   // constrained, and always for point-to-point.
