@@ -55,10 +55,8 @@ const char* to_string(InitPolicy p);
 
 // Support below either bound makes an answer weak (see above).
 constexpr double kWeakOverlap = 0.2;
-constexpr double kConfirmedOverlap = 0.5;
-constexpr double kConfirmedRms = 1.75;
+constexpr double kConfirmedOverlap = 0.5;  // kConfirmedRms, kClearlyBetter: icp/refine.hpp
 constexpr double kWeakRms = 2.5;
-constexpr double kClearlyBetter = 0.05;
 constexpr double kReverseExtentRatio = 2.0;
 
 struct AlignSettings {

@@ -201,10 +201,10 @@ CoarseEnd coarse_stages(const PointCloud& source, const Eigen::Isometry3d& init,
 }
 
 // Step 3 of refine.hpp, basin hopping: `end` when its pose is confirmed (RMS within `reach` at
-// most kHopRms × σ₀, σ₀ at least `min_noise`), else the coarse stages are rerun (`again`) from hops
-// along the weakest direction of its system and the start that pairs clearly more source points
-// within `reach` is kept; from a kept pose that is still unconfirmed, the hops go on (at most
-// kHopChain times). The hops' stages are recorded with StageRecord::hop.
+// most kConfirmedRms × σ₀, σ₀ at least `min_noise`), else the coarse stages are rerun (`again`)
+// from hops along the weakest direction of its system and the start that pairs clearly more source
+// points within `reach` is kept; from a kept pose that is still unconfirmed, the hops go on (at
+// most kHopChain times). The hops' stages are recorded with StageRecord::hop.
 template <class Again, class Measure>
 CoarseEnd hop_basins(const PointCloud& source, RefineTarget& target, const CoarseEnd& end,
                      double reach, double min_noise, int threads, RefineResult& out, Again&& again,
@@ -214,14 +214,14 @@ CoarseEnd hop_basins(const PointCloud& source, RefineTarget& target, const Coars
   double sq_source_noise = 0;  // σ₀ ≥ the target's noise: the source's is measured when in doubt
   auto unconfirmed = [&] {
     const double noise = std::max(min_noise, std::sqrt(sq_source_noise + sq_target_noise));
-    return here.rms > kHopRms * noise;
+    return here.rms > kConfirmedRms * noise;
   };
   if (!unconfirmed()) return end;
   {
     const KdTree tree(source.positions, threads);
     sq_source_noise = std::pow(surface_noise(source, tree), 2);
   }
-  const double margin = kHopMargin * static_cast<double>(source.size());
+  const double margin = kClearlyBetter * static_cast<double>(source.size());
   CoarseEnd best = end;
   for (int chain = 0; chain < kHopChain && unconfirmed(); ++chain) {
     const SystemAnalysis system = analyse_system(best.hessian);
@@ -281,8 +281,8 @@ void refine_schedule(const PointCloud& source, RefineTarget& target, const Eigen
   CoarseEnd end = coarse_stages(coarse_source, init, diagonal, floor, coarse, run);
   if (settings.hop)
     end = hop_basins(
-        coarse_source, target, end, std::max(floor, kFinalSigmas * end.sigma), 0.05 * spacing,
-        coarse.threads, out,
+        coarse_source, target, end, std::max(floor, kFinalSigmas * end.sigma),
+        kNoiseFloorSpacings * spacing, coarse.threads, out,
         [&](const Eigen::Isometry3d& start) {
           return coarse_stages(coarse_source, start, diagonal, floor, coarse, run);
         },

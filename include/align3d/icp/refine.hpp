@@ -15,13 +15,13 @@
 //      stays in reach long enough to fix x, y and yaw;
 //   3. basin hopping (Wales and Doye 1997) when the pose the coarse stages reached is not
 //      confirmed by the data: its point-to-plane RMS within the final reach τ_f = max(3 s, 4 σ̂)
-//      (σ̂: the last coarse stage's RMS, i.e. the noise) above kHopRms × the noise of the two
-//      clouds, σ₀ = √(σ_source² + σ_target²) (surface_noise, cloud_stats.hpp; at least 0.05 s),
-//      the test align() calls unconfirmed (align.hpp, kConfirmedRms). The coarse stages run again
+//      (σ̂: the last coarse stage's RMS, i.e. the noise) above kConfirmedRms × the noise of the
+//      two clouds, σ₀ = √(σ_source² + σ_target²) (surface_noise, cloud_stats.hpp; at least
+//      kNoiseFloorSpacings × s), the test align() calls unconfirmed. The coarse stages run again
 //      from the pose moved along the direction their last system constrains least (Gelfand et al.
 //      2003: a near-symmetry, where ICP's pairs exert almost no pull) by ±kHopStep (a turn of 29°),
 //      then ±2 kHopStep (57°) if none of those is clearly better; a start is kept when it lays
-//      kHopMargin more of the source within τ_f of the target (align.hpp's kClearlyBetter). From a
+//      kClearlyBetter more of the source within τ_f of the target. From a
 //      kept pose still unconfirmed the hops go on, at most kHopChain times;
 //   4. the requested metric runs to convergence with τ = max(3 s, 4 σ̂), still weighted.
 // On large clouds the coarse stages of step 2 use an even thinning of the source to at most 50 000
@@ -73,14 +73,19 @@ struct CostSettings {
   double kernel_scale = 0;
 };
 
-// Basin hopping (step 3 above): hop when the RMS exceeds kHopRms × σ₀; hops of kHopStep and
-// 2 kHopStep along the weakest direction of the system, made dimensionless as degeneracy.hpp does
-// (a unit turns by 1 rad, or moves by the pairs' RMS lever arm); kept when better by kHopMargin of
-// the source's points.
-inline constexpr double kHopRms = 1.75;
+// When the data confirm a pose, here and in align() (align.hpp): its RMS at most kConfirmedRms ×
+// σ₀, the noise of the two clouds, σ₀ at least kNoiseFloorSpacings × the point spacing; and when
+// one pose is clearly better than another: it lays kClearlyBetter more of the object (a share of
+// its points) on the other cloud's surface.
+inline constexpr double kConfirmedRms = 1.75;
+inline constexpr double kNoiseFloorSpacings = 0.05;
+inline constexpr double kClearlyBetter = 0.05;
+
+// Basin hopping (step 3 above): hop from a pose not confirmed; hops of kHopStep and 2 kHopStep
+// along the weakest direction of the system, made dimensionless as degeneracy.hpp does (a unit
+// turns by 1 rad, or moves by the pairs' RMS lever arm); a start kept when clearly better.
 inline constexpr double kHopStep = 0.5;
 inline constexpr int kHopRounds = 2;
-inline constexpr double kHopMargin = 0.05;
 inline constexpr int kHopChain = 3;
 
 struct RefineSettings : CostSettings {
