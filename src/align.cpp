@@ -17,9 +17,8 @@ using detail::fixed;
 using detail::ms_since;
 using detail::number;
 
-// The noise the RMS is compared with: σ₀, but not below 5 % of the spacing (noise-free synthetic
-// data have σ₀ ≈ 0 while two samplings of one surface still differ by a little).
-double noise_floor(const Support& s) { return std::max(s.noise, kNoiseFloorSpacings * s.spacing); }
+// The noise the RMS is compared with (noise_floor, icp/refine.hpp).
+double noise_floor(const Support& s) { return align3d::noise_floor(s.noise, s.spacing); }
 
 // What is weak about an answer (align.hpp), as one sentence per finding; empty when nothing.
 std::vector<Warning> weaknesses(const RefineResult& r, const Support& s) {

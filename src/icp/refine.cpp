@@ -201,20 +201,20 @@ CoarseEnd coarse_stages(const PointCloud& source, const Eigen::Isometry3d& init,
 }
 
 // Step 3 of refine.hpp, basin hopping: `end` when its pose is confirmed (RMS within `reach` at
-// most kConfirmedRms × σ₀, σ₀ at least `min_noise`), else the coarse stages are rerun (`again`)
+// most kConfirmedRms × noise_floor(σ₀, spacing)), else the coarse stages are rerun (`again`)
 // from hops along the weakest direction of its system and the start that pairs clearly more source
 // points within `reach` is kept; from a kept pose that is still unconfirmed, the hops go on (at
 // most kHopChain times). The hops' stages are recorded with StageRecord::hop.
 template <class Again, class Measure>
 CoarseEnd hop_basins(const PointCloud& source, RefineTarget& target, const CoarseEnd& end,
-                     double reach, double min_noise, int threads, RefineResult& out, Again&& again,
+                     double reach, double spacing, int threads, RefineResult& out, Again&& again,
                      Measure&& measure) {
   IcpResult here = measure(end.T, reach);
   const double sq_target_noise = target.noise() * target.noise();
   double sq_source_noise = 0;  // σ₀ ≥ the target's noise: the source's is measured when in doubt
   auto unconfirmed = [&] {
-    const double noise = std::max(min_noise, std::sqrt(sq_source_noise + sq_target_noise));
-    return here.rms > kConfirmedRms * noise;
+    return here.rms >
+           kConfirmedRms * noise_floor(std::sqrt(sq_source_noise + sq_target_noise), spacing);
   };
   if (!unconfirmed()) return end;
   {
@@ -281,8 +281,8 @@ void refine_schedule(const PointCloud& source, RefineTarget& target, const Eigen
   CoarseEnd end = coarse_stages(coarse_source, init, diagonal, floor, coarse, run);
   if (settings.hop)
     end = hop_basins(
-        coarse_source, target, end, std::max(floor, kFinalSigmas * end.sigma),
-        kNoiseFloorSpacings * spacing, coarse.threads, out,
+        coarse_source, target, end, std::max(floor, kFinalSigmas * end.sigma), spacing,
+        coarse.threads, out,
         [&](const Eigen::Isometry3d& start) {
           return coarse_stages(coarse_source, start, diagonal, floor, coarse, run);
         },

@@ -48,6 +48,7 @@
 #pragma once
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <memory>
 #include <optional>
 #include <string>
@@ -80,6 +81,12 @@ struct CostSettings {
 inline constexpr double kConfirmedRms = 1.75;
 inline constexpr double kNoiseFloorSpacings = 0.05;
 inline constexpr double kClearlyBetter = 0.05;
+
+// The noise an RMS is judged against: σ₀, but not below kNoiseFloorSpacings × the point spacing
+// (noise-free synthetic data have σ₀ ≈ 0 while two samplings of one surface still differ a little).
+inline double noise_floor(double noise, double spacing) {
+  return std::max(noise, kNoiseFloorSpacings * spacing);
+}
 
 // Basin hopping (step 3 above): hop from a pose not confirmed; hops of kHopStep and 2 kHopStep
 // along the weakest direction of the system, made dimensionless as degeneracy.hpp does (a unit
