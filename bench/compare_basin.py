@@ -7,8 +7,8 @@ Usage:
                          [--figures DIR] [--quick]
 
 Scenes: those of `align3d evaluate` (`--scenes-only` writes them): the chapter scene and partial
-views of a bracket and of a bumpy sphere (~60 % overlap, 5 % outliers), each a source, a target
-and the truth (target ≈ T·source).
+views of a bracket, a bumpy sphere and an animal (~60 % overlap, 5 % outliers), each a source, a
+target and the truth (target ≈ T·source).
 
 Protocol (Rusinkiewicz 2019's, as `align3d evaluate`'s basin): for each cell (rotation angle a ×
 translation magnitude s, a fraction of the target's bounding-box diagonal L) and each trial, a

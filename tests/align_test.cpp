@@ -13,6 +13,7 @@
 #include <utility>
 
 #include "align3d/error.hpp"
+#include "align3d/evaluate.hpp"
 #include "align3d/synth/camera.hpp"
 #include "align3d/synth/depth_scenes.hpp"
 #include "align3d/synth/scenes.hpp"
@@ -49,9 +50,10 @@ TEST(Align, ChapterSceneWithDefaults) {
 }
 
 // A partial view (60 % of an object, 5 % outliers) turned by `angle` about a fixed axis. From the
-// identity, ICP alone succeeds at small angles and lands in wrong minima at large ones (measured:
-// from 50° on for both shapes); the default must be right everywhere, and take the global stage's
-// answer exactly where ICP alone failed.
+// identity, ICP without hops succeeds at small angles and lands in wrong minima at large ones
+// (measured: from 50° on for the bracket and the bumpy sphere, at 60° for the animal, which with
+// hops is right up to 120°); the default must be right everywhere, and take the global stage's
+// answer exactly where that ICP failed.
 class PartialViews : public ::testing::TestWithParam<std::tuple<std::string, double>> {};
 
 TEST_P(PartialViews, AutoChoosesGlobalExactlyWhereIcpAloneFails) {
@@ -61,8 +63,9 @@ TEST_P(PartialViews, AutoChoosesGlobalExactlyWhereIcpAloneFails) {
   os.seed = 3;
   os.outlier_fraction = 0.05;
   const synth::Scene s = synth::make_object_scene(os);
-  AlignSettings icp_alone;
+  AlignSettings icp_alone;  // ICP as `auto` runs it first: from the identity, without hops
   icp_alone.init = InitPolicy::kIdentity;
+  icp_alone.refine.hop = false;
   const AlignResult a = align(s.scan, s.model, icp_alone);
   const bool icp_right = pose_error(a.transformation, s.T_model_scan).rotation_deg < 0.1;
   if (os.rotation_deg >= 90) {  // the test must exercise both paths
@@ -71,9 +74,9 @@ TEST_P(PartialViews, AutoChoosesGlobalExactlyWhereIcpAloneFails) {
   if (os.rotation_deg <= 30) {
     EXPECT_TRUE(icp_right);
   }
-  // ICP alone is never wrong in silence.
+  // ICP alone is never wrong in silence: it fails, or it warns.
   if (!icp_right) {
-    EXPECT_FALSE(a.warnings.empty());
+    EXPECT_TRUE(!a.success || !a.warnings.empty()) << codes(a);
   }
 
   const AlignResult r = align(s.scan, s.model);
@@ -86,7 +89,7 @@ TEST_P(PartialViews, AutoChoosesGlobalExactlyWhereIcpAloneFails) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Angles, PartialViews,
-                         ::testing::Combine(::testing::Values("bracket", "bumpy-sphere"),
+                         ::testing::Combine(::testing::Values("bracket", "bumpy-sphere", "animal"),
                                             ::testing::Values(10.0, 60.0, 120.0, 180.0)));
 
 // Two range scans of the test object, each in its own camera frame, `apart` degrees apart on a
@@ -104,6 +107,33 @@ TEST(Align, RangeScansOfAnObject) {
     EXPECT_LT(e.rotation_deg, 0.1) << apart << " " << r.path;
     EXPECT_LT(e.translation, 0.2) << apart << " " << r.path;  // σ = 0.1 mm at 0.5 m
   }
+}
+
+// Two range scans of the animal 70° apart (evaluation_scenes()'s "animal": both partial, 61 %
+// overlap, thin legs, ears and a tail). Registration does NOT succeed on them (issue 18, open):
+// from the truth itself the coarse stages' pairs between the parts one scan sees and the other does
+// not, 2-17 mm from the other surface, pull the pose away. What must hold meanwhile: the result is
+// right, or it fails, or it warns; never a wrong pose in silence.
+TEST(Align, RangeScansOfTheAnimalAreNeverWrongInSilence) {
+  const EvalScene scans = evaluation_scenes().at(3);
+  ASSERT_EQ(scans.name, "animal");
+  const double diagonal = bounding_box_diagonal(scans.target);
+  const Eigen::Vector3d c = centroid(scans.target);
+  for (const double angle : {0.0, 10.0, 30.0})
+    for (const InitPolicy init : {InitPolicy::kIdentity, InitPolicy::kAuto}) {
+      const Eigen::Isometry3d P =
+          Eigen::Translation3d(c + 0.1 * diagonal * Eigen::Vector3d(0, 0.6, 0.8)) *
+          rigid_transform(angle, Eigen::Vector3d(1, 2, -1)) * Eigen::Translation3d(-c);
+      AlignSettings settings;
+      settings.init = init;
+      const AlignResult r =
+          align(transformed(scans.source, P * scans.T_target_source), scans.target, settings);
+      const PoseError e =
+          pose_error(r.transformation * P * scans.T_target_source, scans.T_target_source);
+      const bool right = e.rotation_deg < 1 && e.translation < 0.005 * diagonal;
+      EXPECT_TRUE(right || !r.success || !r.warnings.empty())
+          << angle << "° " << r.path << ": " << e.rotation_deg << "° " << e.translation;
+    }
 }
 
 // A 180 mm part in a 1.4 m depth-camera scene (640 × 480, Kinect-like noise σ ≈ 1.6 mm, NaN

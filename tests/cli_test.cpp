@@ -402,11 +402,11 @@ TEST(CliEvaluate, QuickRunWritesTheTableAndTheBasin) {
   const CliRun r = run({"evaluate", d.path().string(), "--quick"});
   ASSERT_EQ(r.code, 0) << r.err;
   for (const char* f : {"evaluation.md", "evaluation.json", "basin_chapter.png",
-                        "basin_bracket.svg", "basin_bumpy-sphere.png"})
+                        "basin_bracket.svg", "basin_bumpy-sphere.png", "basin_animal.png"})
     EXPECT_TRUE(std::filesystem::exists(d / f)) << f;
   const auto j = nlohmann::json::parse(read_text(d / "evaluation.json"));
-  EXPECT_EQ(j["success"].size(), 18u);  // 3 scenes × 6 methods
-  EXPECT_EQ(j["basin"].size(), 18u);
+  EXPECT_EQ(j["success"].size(), 24u);  // 4 scenes × 6 methods
+  EXPECT_EQ(j["basin"].size(), 24u);
 }
 
 // The scenes a peer runs on: each truth puts the source onto the target (brute-force nearest
@@ -417,7 +417,7 @@ TEST(CliEvaluate, ScenesOnlyWritesEachSceneWithItsTruth) {
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_FALSE(std::filesystem::exists(d / "evaluation.md"));  // measures nothing
   const auto j = nlohmann::json::parse(read_text(d / "evaluation.json"));
-  ASSERT_EQ(j["scenes"].size(), 3u);
+  ASSERT_EQ(j["scenes"].size(), 4u);
   for (const auto& scene : j["scenes"]) {
     const PointCloud source = io::read_point_cloud(d / scene["source"].get<std::string>());
     const PointCloud target = io::read_point_cloud(d / scene["target"].get<std::string>());

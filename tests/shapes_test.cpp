@@ -7,6 +7,7 @@
 #include <cmath>
 
 #include "align3d/se3.hpp"
+#include "detail/random.hpp"
 #include "test_util.hpp"
 
 namespace align3d::synth {
@@ -158,7 +159,7 @@ TEST(Shapes, DistancesToTheSurfaceMatchClosedForms) {
 TEST(Shapes, BoundingBoxesAreTight) {
   const Eigen::Isometry3d T = some_pose();
   const std::vector<Shape> shapes = {Box{T, {3, 2, 1}}, Cylinder{T, 2, 3}, Sphere{{1, 2, 3}, 2},
-                                     Rectangle{T, {4, 1}}};
+                                     Rectangle{T, {4, 1}}, Ellipsoid{T, {3, 2, 1}}};
   for (const Shape& shape : shapes) {
     const Eigen::AlignedBox3d box = bounding_box(shape);
     const PointCloud samples = sample_surface({shape}, 40000, 3);
@@ -174,8 +175,9 @@ TEST(Shapes, BoundingBoxesAreTight) {
 TEST(Shapes, TransformedShapesMoveRigidly) {
   const Eigen::Isometry3d T = some_pose();
   const Eigen::Isometry3d M = rigid_transform(-70, Eigen::Vector3d(0.2, 1, 1), {3, 4, -5});
-  const std::vector<Shape> shapes = {Box{T, {3, 2, 1}}, Cylinder{T, 2, 3}, Sphere{{1, 2, 3}, 2},
-                                     Rectangle{T, {4, 1}}, Plane{{0, 0.6, 0.8}, {0, 0, 5}}};
+  const std::vector<Shape> shapes = {Box{T, {3, 2, 1}},       Cylinder{T, 2, 3},
+                                     Sphere{{1, 2, 3}, 2},    Rectangle{T, {4, 1}},
+                                     Ellipsoid{T, {3, 2, 1}}, Plane{{0, 0.6, 0.8}, {0, 0, 5}}};
   const Eigen::Vector3d p(2, -1, 4);
   for (const Shape& s : shapes)
     EXPECT_NEAR(surface_distance(transformed(s, M), M * p), surface_distance(s, p), 1e-12)
@@ -213,6 +215,96 @@ TEST(Shapes, SamplesCoverTheOuterSurfaceOfAUnionUniformly) {
   const double share = sphere / (sphere + cylinder);
   const double sd = std::sqrt(share * (1 - share) / n);  // binomial
   EXPECT_NEAR(on_sphere / static_cast<double>(n), share, 4 * sd);
+}
+
+// Ellipsoid hits: along a local axis the vertex, with that axis as the normal; any other ray's hit
+// lies on the surface Σ (x_i / a_i)² = 1 with the normalised gradient (x_i / a_i²) as its normal.
+TEST(Shapes, EllipsoidHitsLieOnItsSurfaceWithItsGradientAsNormal) {
+  const Eigen::Isometry3d T = some_pose();
+  const Ellipsoid e{T, {3, 2, 1}};
+  expect_hit(intersect(e, local_ray(T, {10, 0, 0}, {9, 0, 0})), T * Eigen::Vector3d(3, 0, 0),
+             T.linear().col(0), 7);
+  expect_hit(intersect(e, local_ray(T, {0, 0, -5}, {0, 0, -4})), T * Eigen::Vector3d(0, 0, -1),
+             -T.linear().col(2), 4);
+  EXPECT_FALSE(intersect(e, local_ray(T, {0, 2.01, -5}, {0, 2.01, -4})).has_value());
+  Random rng(4);
+  for (int k = 0; k < 200; ++k) {
+    const Eigen::Vector3d from(rng.uniform(-9, 9), rng.uniform(-9, 9), rng.uniform(-9, 9));
+    const Eigen::Vector3d to(rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-0.5, 0.5));
+    const std::optional<Hit> h = intersect(e, local_ray(T, from, to));
+    ASSERT_TRUE(h.has_value());  // aimed inside
+    const Eigen::Vector3d l = T.inverse() * h->point;
+    EXPECT_NEAR(l.cwiseQuotient(e.half_axes).squaredNorm(), 1.0, 1e-12);
+    const Eigen::Vector3d g = T.linear() * Eigen::Vector3d(l.x() / 9, l.y() / 4, l.z());
+    EXPECT_LT((h->normal - g.normalized()).norm(), 1e-12);
+  }
+}
+
+// The distance (no closed form) against brute force over a fine grid of the surface, inside and
+// outside; on an axis outside, the vertex; at the centre, the shortest semi-axis.
+TEST(Shapes, EllipsoidDistanceMatchesBruteForce) {
+  const Eigen::Isometry3d T = some_pose();
+  const Ellipsoid e{T, {3, 2, 1}};
+  EXPECT_NEAR(surface_distance(e, T * Eigen::Vector3d(0, -7, 0)), 5.0, 1e-12);
+  EXPECT_NEAR(surface_distance(e, T * Eigen::Vector3d(0, 0, 0)), 1.0, 1e-12);
+  std::vector<Eigen::Vector3d> grid;
+  const int n = 1500;
+  for (int i = 0; i <= n; ++i)
+    for (int j = 0; j < 2 * n; ++j) {
+      const double th = kPi * i / n, ph = kPi * j / n;
+      grid.emplace_back(3 * std::sin(th) * std::cos(ph), 2 * std::sin(th) * std::sin(ph),
+                        std::cos(th));
+    }
+  Random rng(8);
+  for (int k = 0; k < 20; ++k) {
+    const Eigen::Vector3d q(rng.uniform(-5, 5), rng.uniform(-4, 4), rng.uniform(-3, 3));
+    double best = kInfinity;
+    for (const Eigen::Vector3d& g : grid) best = std::min(best, (g - q).squaredNorm());
+    // The grid's gaps are at most 3π/1500 ≈ 0.006 apart: the brute force is above the truth by
+    // less than the square of half a gap over the distance, and never below it.
+    EXPECT_LT(surface_distance(e, T * q), std::sqrt(best) + 1e-12) << q.transpose();
+    EXPECT_GT(surface_distance(e, T * q), std::sqrt(best) - 1e-4) << q.transpose();
+    EXPECT_EQ(contains(e, T * q), q.cwiseQuotient(e.half_axes).squaredNorm() < 1);
+  }
+}
+
+// The area against the spheroids' closed forms, and the samples uniform by area: the share above
+// z = c/2 on a prolate spheroid against that zone's area, integrated here (Simpson) from the
+// surface of revolution's profile r(z) = a·√(1 − z²/c²): dA = 2π·√(r² + (r·r')²) dz.
+TEST(Shapes, EllipsoidAreaAndSamplingMatchTheSpheroids) {
+  const double a = 1, c = 2;
+  const double ep = std::sqrt(1 - a * a / (c * c));
+  const double prolate = 2 * kPi * a * a * (1 + c / (a * ep) * std::asin(ep));
+  EXPECT_NEAR(surface_area(Ellipsoid{some_pose(), {a, a, c}}), prolate, 1e-6 * prolate);
+  const double eo = std::sqrt(1 - a * a / (c * c));  // oblate: semi-axes c, c, a
+  const double oblate = 2 * kPi * c * c * (1 + (1 - eo * eo) / eo * std::atanh(eo));
+  EXPECT_NEAR(surface_area(Ellipsoid{some_pose(), {c, c, a}}), oblate, 1e-6 * oblate);
+
+  auto zone = [&](double z0, double z1) {
+    const int m = 200000;
+    const double h = (z1 - z0) / m;
+    auto f = [&](double z) {
+      const double r2 = a * a * (1 - z * z / (c * c)), rr = a * a * z / (c * c);  // r·r'
+      return 2 * kPi * std::sqrt(std::max(0.0, r2) + rr * rr);
+    };
+    double sum = f(z0) + f(z1);
+    for (int i = 1; i < m; ++i) sum += (i % 2 ? 4 : 2) * f(z0 + i * h);
+    return sum * h / 3;
+  };
+  const Ellipsoid e{rigid_transform(0, Eigen::Vector3d::UnitZ()), {a, a, c}};
+  const int n = 40000;
+  const PointCloud cloud = sample_surface({e}, n, 6);
+  int high = 0;
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    const Eigen::Vector3d& p = cloud.positions[i];
+    ASSERT_NEAR(p.cwiseQuotient(e.half_axes).squaredNorm(), 1.0, 1e-12);
+    const Eigen::Vector3d g(p.x() / (a * a), p.y() / (a * a), p.z() / (c * c));
+    ASSERT_LT((cloud.normals[i] - g.normalized()).norm(), 1e-12);
+    high += p.z() > c / 2;
+  }
+  const double share = zone(c / 2, c) / zone(-c, c);
+  EXPECT_NEAR(zone(-c, c), prolate, 1e-6 * prolate);  // the quadrature is sound
+  EXPECT_NEAR(high / static_cast<double>(n), share, 4 * std::sqrt(share * (1 - share) / n));
 }
 
 TEST(Shapes, SamplingIsDeterministicAndRejectsPlanes) {

@@ -87,10 +87,10 @@ def test_evaluate_quick(tmp_path):
     report = align3d.evaluate(tmp_path / "eval", quick=True, threads=2)
     assert report["trials"] == 3
     assert len({row["method"] for row in report["success"]}) == 6  # ICP ×4, global, auto
-    assert len({row["scene"] for row in report["success"]}) == 3
+    assert len({row["scene"] for row in report["success"]}) == 4
     assert all(0 <= row["successes"] <= row["trials"] == 3 for row in report["success"])
-    assert len(report["basin"]) == 18  # 3 scenes × 6 methods
-    for scene in ("chapter", "bracket", "bumpy-sphere"):
+    assert len(report["basin"]) == 24  # 4 scenes × 6 methods
+    for scene in ("chapter", "bracket", "bumpy-sphere", "animal"):
         assert (tmp_path / "eval" / f"basin_{scene}.png").is_file()
 
 

@@ -130,6 +130,31 @@ std::vector<Shape> test_object_shapes() {
           Sphere{{5, -22, 34}, 16}};                       // knob
 }
 
+std::vector<Shape> animal_shapes() {
+  struct Part {
+    Eigen::Vector3d centre, half_axes;
+    double pitch_deg, yaw_deg;
+  };
+  const Part parts[] = {{{0, 0, 45}, {34, 16, 17}, 0, 0},       // body
+                        {{30, 0, 62}, {9, 8, 18}, -35, 0},      // neck
+                        {{42, 2, 78}, {14, 8, 9}, 0, 10},       // head
+                        {{54, 4, 74}, {8, 5, 5}, 10, 10},       // snout
+                        {{38, 7, 87}, {2.5, 2, 6}, 0, 20},      // ears
+                        {{36, -5, 87}, {2.5, 2, 6}, -25, -10},  //
+                        {{22, 9, 22}, {5, 5, 22}, 5, 0},        // front legs
+                        {{22, -9, 22}, {5, 5, 22}, -5, 0},      //
+                        {{-24, 9, 22}, {6, 6, 22}, 10, 0},      // hind legs
+                        {{-24, -9, 22}, {6, 6, 22}, 10, 0},     //
+                        {{-40, 2, 55}, {14, 3, 3}, -35, 15}};   // tail
+  std::vector<Shape> out;
+  for (const Part& p : parts)
+    out.push_back(Ellipsoid{Eigen::Translation3d(p.centre) *
+                                rigid_transform(p.yaw_deg, Eigen::Vector3d::UnitZ()) *
+                                rigid_transform(p.pitch_deg, Eigen::Vector3d::UnitY()),
+                            p.half_axes});
+  return out;
+}
+
 PointCloud test_object_model(int points, std::uint64_t seed) {
   return sample_surface(test_object_shapes(), points, seed);
 }
@@ -192,9 +217,12 @@ BinScene make_bin_scene(const BinSceneSettings& s) {
 
 ObjectViews make_object_views(const ObjectViewsSettings& s) {
   if (s.azimuth_deg.empty()) throw std::invalid_argument("make_object_views: no azimuth");
-  const std::vector<Shape> object = test_object_shapes();
+  if (s.object != "part" && s.object != "animal")
+    throw std::invalid_argument("make_object_views: unknown object '" + s.object +
+                                "' (part or animal)");
+  const std::vector<Shape> object = s.object == "animal" ? animal_shapes() : test_object_shapes();
   ObjectViews out;
-  out.model = test_object_model(s.model_points, s.seed);
+  out.model = sample_surface(object, s.model_points, s.seed);
   const Eigen::Vector3d target(0, 0, s.target_height);
   const double e = deg_to_rad(s.elevation_deg);
   for (std::size_t k = 0; k < s.azimuth_deg.size(); ++k) {

@@ -8,6 +8,8 @@
 #include <vector>
 
 #include "align3d/se3.hpp"
+#include "align3d/synth/depth_scenes.hpp"
+#include "align3d/synth/shapes.hpp"
 #include "detail/random.hpp"
 
 namespace align3d::synth {
@@ -268,14 +270,22 @@ Scene make_object_scene(const ObjectSettings& s) {
     const Eigen::Vector3d bumps[4] = {{26, 0, 12}, {-8, 24, 14}, {-12, -20, 18}, {5, 5, 29}};
     for (const auto& b : bumps) parts.push_back(std::make_unique<SphereCap>(b, 12, -1e9));
     parts.push_back(std::make_unique<CylinderPrimitive>(Eigen::Vector2d(12, -12), 5, 0, 42));
-  } else {
-    throw std::invalid_argument("unknown object shape '" + s.shape + "' (bracket, bumpy-sphere)");
+  } else if (s.shape != "animal") {
+    throw std::invalid_argument("unknown object shape '" + s.shape +
+                                "' (bracket, bumpy-sphere, animal)");
   }
+  // The animal is made of ellipsoids (shapes.hpp, as the range scans of it are rendered).
+  const std::vector<Shape> animal = s.shape == "animal" ? animal_shapes() : std::vector<Shape>{};
+  std::uint64_t draws = 0;
+  auto sample = [&] {
+    if (animal.empty()) return sample_union(parts, s.points, rng);
+    return sample_surface(animal, s.points, splitmix64(s.seed + ++draws)).positions;
+  };
   Scene scene;
-  scene.model.positions = sample_union(parts, s.points, rng);
+  scene.model.positions = sample();
 
   // The view: the `overlap` share of a fresh sampling lying farthest along a view direction.
-  std::vector<Eigen::Vector3d> seen = sample_union(parts, s.points, rng);
+  std::vector<Eigen::Vector3d> seen = sample();
   const Eigen::Vector3d view = Eigen::Vector3d(0.4, 0.3, 1).normalized();
   std::stable_sort(seen.begin(), seen.end(),
                    [&](const Eigen::Vector3d& a, const Eigen::Vector3d& b) {

@@ -11,6 +11,7 @@
 
 #include <Eigen/Geometry>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "align3d/plane/plane.hpp"
@@ -24,6 +25,11 @@ namespace align3d::synth {
 std::vector<Shape> test_object_shapes();
 // Its model: `points` samples spread evenly by area over its outer surface, with outward normals.
 PointCloud test_object_model(int points = 20000, std::uint64_t seed = 1);
+// An animal: a quadruped about 115 mm long and 93 mm tall made of ellipsoids (body, neck, head,
+// snout, two ears, four legs, a tail), standing on z = 0 and facing +x. Its head, ears and tail
+// turn a little to one side, so it has no mirror plane; where the ellipsoids meet, its creases are
+// sharper than a scanned animal's.
+std::vector<Shape> animal_shapes();
 
 // A bin on a floor, seen from above by a depth camera. World frame: the floor is z = 0, z up, the
 // bin's base centred on the origin. The camera sits `camera_height` above the floor, its optical
@@ -66,16 +72,18 @@ struct BinScene {
 // Throws std::invalid_argument for bad settings or when the instances do not fit into the bin.
 BinScene make_bin_scene(const BinSceneSettings& settings = {});
 
-// Range scans of the test object alone (no background), one per azimuth: the camera is on a
-// circle of radius `distance` about the object's vertical axis, `elevation_deg` above the plane
-// z = `target_height` and looking at the point (0, 0, target_height). View k sees one side of the
-// object; two views share less of it the farther apart their azimuths are. Overlap, as the share
-// of the model seen by both among that seen by either, for the default first view (30°) and a
-// second one 10°, 60°, 120°, 180° away: 0.91, 0.46, 0.35, 0.11 (at 180° the top faces, seen at
-// 70° incidence, and two end faces remain common).
+// Range scans of the test object (or of the animal: `object`) alone (no background), one per
+// azimuth: the camera is on a circle of radius `distance` about the object's vertical axis,
+// `elevation_deg` above the plane z = `target_height` and looking at the point (0, 0,
+// target_height). View k sees one side of the object; two views share less of it the farther apart
+// their azimuths are. Overlap of the test object, as the share of the model seen by both among that
+// seen by either, for the default first view (30°) and a second one 10°, 60°, 120°, 180° away:
+// 0.91, 0.46, 0.35, 0.11 (at 180° the top faces, seen at 70° incidence, and two end faces remain
+// common).
 // Defaults: a structured-light scanner at ~0.5 m (narrower field of view, σ ≈ 0.1 mm).
 struct ObjectViewsSettings {
   std::uint64_t seed = 1;
+  std::string object = "part";  // "part" (test_object_shapes) or "animal" (animal_shapes)
   std::vector<double> azimuth_deg = {30, 90};
   double distance = 500;
   double elevation_deg = 20;
@@ -99,7 +107,8 @@ struct ObjectViews {
   std::vector<Eigen::Isometry3d> T_camera_object;  // view k ≈ T_k·model; view i ≈ T_i·T_j⁻¹·view j
 };
 
-// Throws std::invalid_argument for no azimuth or a distance that puts the camera inside the object.
+// Throws std::invalid_argument for no azimuth, an unknown object or a distance that puts the
+// camera inside the object.
 ObjectViews make_object_views(const ObjectViewsSettings& settings = {});
 
 }  // namespace align3d::synth

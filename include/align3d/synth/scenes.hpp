@@ -48,7 +48,8 @@ Scene make_conveyor_scene(const ConveyorSettings& settings = {});
 // noise and `outlier_fraction` of points scattered uniformly in the bounding box.
 struct ObjectSettings {
   std::uint64_t seed = 7;
-  std::string shape = "bumpy-sphere";  // "bumpy-sphere" or "bracket" (an L-shaped part with a hole)
+  std::string shape = "bumpy-sphere";  // "bumpy-sphere", "bracket" (an L-shaped part with a hole)
+                                       // or "animal" (a quadruped of ellipsoids)
   int points = 8000;
   double overlap = 0.6;
   double outlier_fraction = 0.04;

@@ -7,6 +7,7 @@
 //   Box        a solid, |x|, |y|, |z| <= half_size (local).
 //   Cylinder   a solid with both caps: local axis z, radius `radius`, |z| <= half_height.
 //   Sphere     a solid, centre `centre`, radius `radius`.
+//   Ellipsoid  a solid, semi-axes `half_axes` along local x, y, z.
 // Plane and Rectangle are sheets: they have no inside, and their normal is the stated one whichever
 // side a ray comes from. The normal of a solid points outwards.
 // A scene is a union: std::vector<Shape>. Every function here is pure and thread-safe.
@@ -45,7 +46,12 @@ struct Sphere {
   double radius = 1;
 };
 
-using Shape = std::variant<Plane, Rectangle, Box, Cylinder, Sphere>;
+struct Ellipsoid {
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  Eigen::Vector3d half_axes{1, 1, 1};
+};
+
+using Shape = std::variant<Plane, Rectangle, Box, Cylinder, Sphere, Ellipsoid>;
 
 // origin + t·direction, t >= 0. The direction need not be unit length; t is then in its units.
 struct Ray {
