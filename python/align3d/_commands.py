@@ -107,15 +107,15 @@ def evaluate(
     threads: Optional[int] = None,
 ) -> Dict[str, Any]:
     """Measures registration from random starting poses (``align3d evaluate``): success rates of
-    ICP alone (each metric), global + ICP and the default ``init="auto"`` on the chapter scene
-    and three object views (a bracket, a bumpy sphere, an animal), and the convergence basins.
-    Writes ``evaluation.md``, ``evaluation.json`` and ``basin_<scene>.svg``/``.png`` into
-    ``outdir`` and returns ``evaluation.json`` as a dict (``success``: one row per scene and
-    method; ``basin``: one grid per scene and method, with its ``scene``; ``scenes``: each scene's
-    files, written into ``outdir/scenes/<name>/``: ``source.ply``, ``target.ply`` and
-    ``truth.txt``, target ≈ T·source). The full run takes minutes; ``quick=True`` (3 trials, a
-    2×2 basin) checks the machinery in seconds; ``scenes_only=True`` writes the scenes and
-    measures nothing."""
+    ICP alone (each metric), global + ICP and the default ``init="auto"`` on the chapter scene,
+    two object views (a bracket, a bumpy sphere) and two range scans of an animal, and the
+    convergence basins. Writes ``evaluation.md``, ``evaluation.json`` and
+    ``basin_<scene>.svg``/``.png`` into ``outdir`` and returns ``evaluation.json`` as a dict
+    (``success``: one row per scene and method; ``basin``: one grid per scene and method, with its
+    ``scene``; ``scenes``: each scene's files, written into ``outdir/scenes/<name>/``:
+    ``source.ply``, ``target.ply`` and ``truth.txt``, target ≈ T·source). The full run takes
+    minutes; ``quick=True`` (3 trials, a 2×2 basin) checks the machinery in seconds;
+    ``scenes_only=True`` writes the scenes and measures nothing."""
     run("evaluate", [outdir],
         dict(trials=trials, cell_trials=cell_trials, seed=seed, threads=threads),
         dict(quick=quick, scenes_only=scenes_only, quiet=True))
