@@ -143,6 +143,7 @@ class Pipeline {
     // Basin hopping only where ICP is all there is: with a global stage (init auto, global) an
     // unconfirmed pose is the global stage's to mend, and hops would only add time.
     refine_.hop = s.refine.hop && (s.init == InitPolicy::kIdentity || s.init == InitPolicy::kPose);
+    refine_.source_noise = reversed_ ? target.scale.noise : source_scale_.noise;
     global_ = s.global;
     global_.threads = s.threads;
     global_.seed = s.seed;
@@ -267,7 +268,10 @@ AlignResult Pipeline::run() {
   if (policy != InitPolicy::kGlobal) {
     const Eigen::Isometry3d init =
         policy == InitPolicy::kIdentity ? Eigen::Isometry3d::Identity() : s_.initial_pose;
+    // Init auto: an unconfirmed first ICP is the global stage's to mend (RefineSettings).
+    refine_.gicp_candidate = s_.refine.gicp_candidate && policy != InitPolicy::kAuto;
     const AlignCandidate first = refine_from(init, "initial", r);
+    refine_.gicp_candidate = s_.refine.gicp_candidate;
     keep(first, std::move(r));
     const std::string unconfirmed = unconfirmed_because(first);
     if (policy == InitPolicy::kAuto && (first.weak || !unconfirmed.empty())) {

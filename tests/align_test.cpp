@@ -110,11 +110,12 @@ TEST(Align, RangeScansOfAnObject) {
 }
 
 // Two range scans of the animal 70° apart (evaluation_scenes()'s "animal": both partial, 61 %
-// overlap, thin legs, ears and a tail). Registration does NOT succeed on them (issue 18, open):
-// from the truth itself the coarse stages' pairs between the parts one scan sees and the other does
-// not, 2-17 mm from the other surface, pull the pose away. What must hold meanwhile: the result is
-// right, or it fails, or it warns; never a wrong pose in silence.
-TEST(Align, RangeScansOfTheAnimalAreNeverWrongInSilence) {
+// overlap, thin legs, ears and a tail). From the truth itself point-to-plane's coarse stages lose
+// the pose (the pairs between the parts one scan sees and the other does not, 2-17 mm from the
+// other surface, pull it away); GICP's coarse stages, step 3's candidate (icp/refine.hpp), hold it.
+// ICP alone and the default both register them from 0-30° and 10 % of the diagonal (before the
+// candidate, none of the six was right: each warned or failed).
+TEST(Align, RangeScansOfTheAnimal) {
   const EvalScene scans = evaluation_scenes().at(3);
   ASSERT_EQ(scans.name, "animal");
   const double diagonal = bounding_box_diagonal(scans.target);
@@ -128,11 +129,11 @@ TEST(Align, RangeScansOfTheAnimalAreNeverWrongInSilence) {
       settings.init = init;
       const AlignResult r =
           align(transformed(scans.source, P * scans.T_target_source), scans.target, settings);
+      ASSERT_TRUE(r.success) << angle << "°: " << r.failure;
       const PoseError e =
           pose_error(r.transformation * P * scans.T_target_source, scans.T_target_source);
-      const bool right = e.rotation_deg < 1 && e.translation < 0.005 * diagonal;
-      EXPECT_TRUE(right || !r.success || !r.warnings.empty())
-          << angle << "° " << r.path << ": " << e.rotation_deg << "° " << e.translation;
+      EXPECT_LT(e.rotation_deg, 1) << angle << "° " << r.path;
+      EXPECT_LT(e.translation, 0.005 * diagonal) << angle << "° " << r.path;
     }
 }
 

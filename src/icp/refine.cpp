@@ -201,13 +201,16 @@ CoarseEnd coarse_stages(const PointCloud& source, const Eigen::Isometry3d& init,
 }
 
 // Step 3 of refine.hpp, basin hopping: `end` when its pose is confirmed (RMS within `reach` at
-// most kConfirmedRms × noise_floor(σ₀, spacing)), else the coarse stages are rerun (`again`)
-// from hops along the weakest direction of its system and the start that pairs clearly more source
-// points within `reach` is kept; from a kept pose that is still unconfirmed, the hops go on (at
-// most kHopChain times). The hops' stages are recorded with StageRecord::hop.
-template <class Again, class Measure>
-CoarseEnd hop_basins(const PointCloud& source, RefineTarget& target, const CoarseEnd& end,
-                     double reach, double spacing, int threads, RefineResult& out, Again&& again,
+// most kConfirmedRms × noise_floor(σ₀, spacing)); else candidates are tried, each the coarse stages
+// (`coarse(start, method)`) from a start, and one that pairs clearly more source points within
+// `reach` is kept: hops along the weakest direction of the kept pose's system (settings.hop; again
+// from a kept pose still unconfirmed, at most kHopChain times), then, if still unconfirmed, GICP's
+// from `init` (settings.gicp_candidate), and if it is kept, hops from it with GICP's stages. The
+// candidates' stages are recorded with StageRecord::hop.
+template <class Coarse, class Measure>
+CoarseEnd hop_basins(const PointCloud& source, RefineTarget& target, const Eigen::Isometry3d& init,
+                     const CoarseEnd& end, double reach, double spacing, int threads,
+                     const RefineSettings& settings, RefineResult& out, Coarse&& coarse,
                      Measure&& measure) {
   IcpResult here = measure(end.T, reach);
   const double sq_target_noise = target.noise() * target.noise();
@@ -217,42 +220,75 @@ CoarseEnd hop_basins(const PointCloud& source, RefineTarget& target, const Coars
            kConfirmedRms * noise_floor(std::sqrt(sq_source_noise + sq_target_noise), spacing);
   };
   if (!unconfirmed()) return end;
-  {
+  if (settings.source_noise >= 0) {
+    sq_source_noise = settings.source_noise * settings.source_noise;
+  } else {
     const KdTree tree(source.positions, threads);
     sq_source_noise = std::pow(surface_noise(source, tree), 2);
   }
+  if (!unconfirmed()) return end;
   const double margin = kClearlyBetter * static_cast<double>(source.size());
   CoarseEnd best = end;
-  for (int chain = 0; chain < kHopChain && unconfirmed(); ++chain) {
-    const SystemAnalysis system = analyse_system(best.hessian);
-    if (!system.usable) break;
-    // The weakest eigenvector y of the dimensionless system (a unit of it turns by 1 rad or moves
-    // by the lever arm ℓ = 1 / scale(0), analyse_system) as the update (ω, v) = ℓ · scale ⊙ y about
-    // the system's centre, times the hop's size.
-    const Vector6d unit = system.scale.cwiseProduct(system.vectors.col(0)) / system.scale(0);
-    const Eigen::Translation3d to_world(here.centre);
-    const CoarseEnd from = best;
-    bool kept = false;
-    for (int round = 1; round <= kHopRounds && !kept; ++round)
-      for (const double sign : {1.0, -1.0}) {
-        const Eigen::Isometry3d start =
-            to_world * se3_exp(sign * round * kHopStep * unit) * to_world.inverse() * from.T;
-        const std::size_t first = out.stages.size();
-        const CoarseEnd hopped = again(start);
-        ++out.hops;
-        for (std::size_t k = first; k < out.stages.size(); ++k) out.stages[k].hop = true;
-        IcpResult there = measure(hopped.T, reach);
-        if (static_cast<double>(there.correspondences) >
-            static_cast<double>(here.correspondences) + margin) {
-          best = hopped;
-          here = std::move(there);
-          kept = true;
-        }
-      }
-    if (!kept) break;
+  IcpMethod method = IcpMethod::kPointToPlane;  // the cost that reached `best`
+  auto try_candidate = [&](const Eigen::Isometry3d& start, IcpMethod cost) {
+    const std::size_t first = out.stages.size();
+    const CoarseEnd candidate = coarse(start, cost);
+    ++out.hops;
+    for (std::size_t k = first; k < out.stages.size(); ++k) out.stages[k].hop = true;
+    IcpResult there = measure(candidate.T, reach);
+    if (static_cast<double>(there.correspondences) <=
+        static_cast<double>(here.correspondences) + margin)
+      return false;
+    best = candidate;
+    here = std::move(there);
+    method = cost;
     out.hopped = true;
-  }
+    return true;
+  };
+  // From a kept pose still unconfirmed, hops along the weakest direction of its system, with the
+  // cost that reached it.
+  auto hops = [&] {
+    for (int chain = 0; chain < kHopChain && unconfirmed(); ++chain) {
+      const SystemAnalysis system = analyse_system(best.hessian);
+      if (!system.usable) return;
+      // The weakest eigenvector y of the dimensionless system (a unit of it turns by 1 rad or
+      // moves by the lever arm ℓ = 1 / scale(0), analyse_system) as the update
+      // (ω, v) = ℓ · scale ⊙ y about the system's centre, times the hop's size.
+      const Vector6d unit = system.scale.cwiseProduct(system.vectors.col(0)) / system.scale(0);
+      const Eigen::Translation3d to_world(here.centre);
+      const CoarseEnd from = best;
+      const IcpMethod cost = method;
+      bool kept = false;
+      for (int round = 1; round <= kHopRounds && !kept; ++round)
+        for (const double sign : {1.0, -1.0}) {
+          const Eigen::Isometry3d start =
+              to_world * se3_exp(sign * round * kHopStep * unit) * to_world.inverse() * from.T;
+          kept = try_candidate(start, cost) || kept;
+        }
+      if (!kept) return;
+    }
+  };
+  if (settings.hop) hops();
+  if (settings.gicp_candidate && unconfirmed() && try_candidate(init, IcpMethod::kGicp) &&
+      settings.hop)
+    hops();
   return best;
+}
+
+// `source`, or a copy with normals when the method needs them and it has none.
+const PointCloud& with_normals(const PointCloud& source, const RefineSettings& settings,
+                               PointCloud& copy) {
+  if (!needs_source_normals(settings.method) || source.has_normals()) return source;
+  if (source.size() < static_cast<std::size_t>(settings.normals.k))
+    throw DataError(
+        "source",
+        std::to_string(source.size()) + " points; " + to_string(settings.method) +
+            " needs at least the normal neighbourhood k = " + std::to_string(settings.normals.k));
+  copy = source;
+  NormalSettings ns = settings.normals;
+  ns.threads = settings.threads;
+  estimate_normals(copy, ns);
+  return copy;
 }
 
 // The `auto` schedule (refine.hpp): coarse stages at a shrinking τ, basin hopping when their pose
@@ -279,14 +315,27 @@ void refine_schedule(const PointCloud& source, RefineTarget& target, const Eigen
   coarse.termination = {kCoarseIterations, 1e-4, true, 1e-5, 1e-6};
   coarse.kernel = RobustKernel::kGemanMcClure;
   CoarseEnd end = coarse_stages(coarse_source, init, diagonal, floor, coarse, run);
-  if (settings.hop)
+  if (settings.hop || settings.gicp_candidate) {
+    PointCloud copy;
+    const PointCloud* oriented = nullptr;  // the coarse source with normals, for GICP's candidates
+    auto candidate = [&](const Eigen::Isometry3d& start, IcpMethod method) {
+      IcpSettings stages = coarse;
+      stages.method = method;
+      if (!needs_source_normals(method))
+        return coarse_stages(coarse_source, start, diagonal, floor, stages, run);
+      if (coarse_source.size() < static_cast<std::size_t>(settings.normals.k)) return end;
+      if (!oriented) {
+        RefineSettings with = settings;
+        with.method = method;
+        oriented = &with_normals(coarse_source, with, copy);
+      }
+      return coarse_stages(*oriented, start, diagonal, floor, stages, run);
+    };
     end = hop_basins(
-        coarse_source, target, end, std::max(floor, kFinalSigmas * end.sigma), spacing,
-        coarse.threads, out,
-        [&](const Eigen::Isometry3d& start) {
-          return coarse_stages(coarse_source, start, diagonal, floor, coarse, run);
-        },
+        coarse_source, target, init, end, std::max(floor, kFinalSigmas * end.sigma), spacing,
+        coarse.threads, settings, out, candidate,
         [&](const Eigen::Isometry3d& T, double reach) { return measure(coarse_source, T, reach); });
+  }
   Eigen::Isometry3d T = end.T;
   const double sigma = end.sigma;
   double tau = std::max(floor, kFinalSigmas * sigma);
@@ -299,22 +348,6 @@ void refine_schedule(const PointCloud& source, RefineTarget& target, const Eigen
     last.kernel_scale = kernel_scale_or_tuned(last.kernel, settings.kernel_scale, sigma);
   }
   out.icp = run(source, T, last);
-}
-
-// `source`, or a copy with normals when the method needs them and it has none.
-const PointCloud& with_normals(const PointCloud& source, const RefineSettings& settings,
-                               PointCloud& copy) {
-  if (!needs_source_normals(settings.method) || source.has_normals()) return source;
-  if (source.size() < static_cast<std::size_t>(settings.normals.k))
-    throw DataError(
-        "source",
-        std::to_string(source.size()) + " points; " + to_string(settings.method) +
-            " needs at least the normal neighbourhood k = " + std::to_string(settings.normals.k));
-  copy = source;
-  NormalSettings ns = settings.normals;
-  ns.threads = settings.threads;
-  estimate_normals(copy, ns);
-  return copy;
 }
 
 }  // namespace

@@ -22,7 +22,10 @@
 //      2003: a near-symmetry, where ICP's pairs exert almost no pull) by ±kHopStep (a turn of 29°),
 //      then ±2 kHopStep (57°) if none of those is clearly better; a start is kept when it lays
 //      kClearlyBetter more of the source within τ_f of the target. From a
-//      kept pose still unconfirmed the hops go on, at most kHopChain times;
+//      kept pose still unconfirmed the hops go on, at most kHopChain times. If the pose is still
+//      unconfirmed after them, GICP's coarse stages from the start are one more candidate (the
+//      source's normals are estimated for it), kept on the same test, and the hops from it
+//      rerun GICP's stages;
 //   4. the requested metric runs to convergence with τ = max(3 s, 4 σ̂), still weighted.
 // On large clouds the coarse stages of step 2 use an even thinning of the source to at most 50 000
 // points (every m-th point along a Morton curve); the final stage uses every point.
@@ -46,20 +49,19 @@
 // sphere (tests/refine_test.cpp) end right 30 times (24 before). A confirmed pose is not hopped
 // from.
 //
-// Known failure (issue 18, open): two range scans that each see a side the other does not, of a
-// curved object with thin parts (evaluation_scenes()'s animal, 61 % overlap). The unshared points
-// lie 2-17 mm from the other scan's surface, within the first stage's τ = L/8 and kernel scale
-// τ/2, and pull the pose away even from the truth (249 mm off). Tried on a scratch build: a kernel
-// scale capped at 2 × 1.4826 × the median residual keeps 56 of 80 starts (0-60°, 0-10 %) right on
-// it instead of 2 but loses 28 of 80 on the chapter scene, whose few box pairs are what that cap
-// takes for outliers; rejecting pairs whose normals differ by more than 45° (30°) in the coarse
-// stages keeps 63 (70) of the animal's 80 right and loses 4 (13) on the chapter scene, 10 (12) on
-// the bracket and 10 (15) on the bumpy sphere; rejecting pairs whose target point is on the scan's
-// border (largest angular gap of its neighbours > 90°) holds the truth at a fixed τ of 1-4 mm
-// only. Open3D's point-to-point and point-to-plane ICP fail on it at every reach tried
-// (bench/README.md); its GICP at D = 10 % of L is right in 93 of 224 trials (all 8 from the
-// truth), and align3d's GICP at a fixed τ of 17 mm holds it (0.26 mm, 0.04°): GICP in the coarse
-// stages, for range scans only, is the next thing to try.
+// Why the GICP candidate (issue 18): two range scans that each see a side the other does not, of
+// a curved object with thin parts (evaluation_scenes()'s animal, 61 % overlap). The unshared points
+// lie 2-17 mm from the other scan's surface, within the first stage's τ = L/8 and kernel scale τ/2,
+// and pull point-to-plane off even from the truth (249 mm off); GICP's plane-to-plane pairs of two
+// differently curved patches pull little, and its coarse stages hold the truth (0.26 mm and 0.04°
+// at a fixed τ of 17 mm). Point-to-plane's hops do not mend it: bench/compare_basin.py had 0-14 of
+// 224 starts (0-90°, 0-20 %) right for every method before the candidate. It is a candidate, not
+// the coarse cost: GICP's coarse stages lost the chapter scene from 12°, and are tried only after
+// the hops (from a start where both end unconfirmed, point-to-plane's hops found the chapter's
+// truth and GICP's did not). Tried on scratch builds and not kept, as the animal's 80 starts right
+// (0-60°, 0-10 %) against the chapter scene's: a kernel scale capped at 2 × 1.4826 × the median
+// residual, 56 against 52 of 80; rejecting pairs whose normals differ by more than 45° (30°), 63
+// (70) against 76 (67), losing 10-15 of 80 on the bracket and the bumpy sphere too.
 #pragma once
 
 #include <Eigen/Geometry>
@@ -128,6 +130,14 @@ struct RefineSettings : CostSettings {
   // far-off start cost up to 3 × 4 reruns of the coarse stages (`align3d evaluate`'s default rows
   // took 1.5-2.3× the time when its first ICP hopped).
   bool hop = true;
+  // GICP's coarse stages from the start, a candidate of step 3 of `auto` (tried after the hops)
+  // when the pose is still unconfirmed. align() leaves it out of init auto's first ICP, which the
+  // global stage mends when unconfirmed (with it, `align3d evaluate`'s default rows took 1.4-1.5×
+  // the time in a 30-trial scratch run).
+  bool gicp_candidate = true;
+  // The source's surface_noise (cloud_stats.hpp) when the caller has measured it (align() has);
+  // < 0: step 3 of `auto` measures it when in doubt.
+  double source_noise = -1;
 };
 
 // The target of any number of refinements, prepared once: a copy in spatial order (the search,
@@ -186,13 +196,13 @@ class RefineTarget {
 };
 
 struct StageRecord {
-  std::string metric;       // "point-to-point" or "point-to-plane"
+  std::string metric;       // to_string(IcpMethod): "point-to-plane", "gicp", ...
   double max_distance = 0;  // τ of the stage (infinity for none, per-iteration for median)
   int first_iteration = 0;  // index into the combined history of the stage's first evaluation
                             // (a stage has iterations + 1 records: its start pose, then one per
                             // update)
   int iterations = 0;
-  bool hop = false;  // a coarse stage run from a hop's start (basin hopping, step 3 above)
+  bool hop = false;  // a coarse stage of a step-3 candidate: from a hop's start, or GICP's
 };
 
 struct RefineResult {
@@ -201,8 +211,8 @@ struct RefineResult {
   std::vector<StageRecord> stages;
   int total_iterations = 0;
   double point_spacing = 0;  // the target spacing s used for `auto` (0 otherwise)
-  int hops = 0;         // starts the basin hopping tried (`auto` only; 0: the pose was confirmed)
-  bool hopped = false;  // one of them was kept
+  int hops = 0;              // candidates step 3 tried (`auto` only; 0: the pose was confirmed)
+  bool hopped = false;       // one of them was kept
   // Target normals estimated so far when the target has none: only where pairs needed them
   // (normals.hpp, NormalCache), and of those, the neighbourhoods with no plane.
   std::size_t estimated_normals = 0;
