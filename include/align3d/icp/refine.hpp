@@ -52,9 +52,9 @@
 // Why the GICP candidate (issue 18): two range scans that each see a side the other does not, of
 // a curved object with thin parts (evaluation_scenes()'s animal, 61 % overlap). The unshared points
 // lie 2-17 mm from the other scan's surface, within the first stage's τ = L/8 and kernel scale τ/2,
-// and pull point-to-plane off even from the truth (249 mm off); GICP's plane-to-plane pairs of two
-// differently curved patches pull little, and its coarse stages hold the truth (0.26 mm and 0.04°
-// at a fixed τ of 17 mm). Point-to-plane's hops do not mend it: bench/compare_basin.py had 0-14 of
+// and pull point-to-plane off even from the truth (249 mm off); GICP's coarse stages, measured,
+// hold the truth (0.26 mm and 0.04° at a fixed τ of 17 mm; why it resists that pull better was not
+// isolated). Point-to-plane's hops do not mend it: bench/compare_basin.py had 0-14 of
 // 224 starts (0-90°, 0-20 %) right for every method before the candidate. It is a candidate, not
 // the coarse cost: GICP's coarse stages lost the chapter scene from 12°, and are tried only after
 // the hops (from a start where both end unconfirmed, point-to-plane's hops found the chapter's
