@@ -209,7 +209,7 @@ CoarseEnd coarse_stages(const PointCloud& source, const Eigen::Isometry3d& init,
 // candidates' stages are recorded with StageRecord::hop.
 template <class Coarse, class Measure>
 CoarseEnd hop_basins(const PointCloud& source, RefineTarget& target, const Eigen::Isometry3d& init,
-                     const CoarseEnd& end, double reach, double spacing, int threads,
+                     const CoarseEnd& end, double reach, double spacing,
                      const RefineSettings& settings, RefineResult& out, Coarse&& coarse,
                      Measure&& measure) {
   IcpResult here = measure(end.T, reach);
@@ -223,7 +223,7 @@ CoarseEnd hop_basins(const PointCloud& source, RefineTarget& target, const Eigen
   if (settings.source_noise >= 0) {
     sq_source_noise = settings.source_noise * settings.source_noise;
   } else {
-    const KdTree tree(source.positions, threads);
+    const KdTree tree(source.positions, settings.threads);
     sq_source_noise = std::pow(surface_noise(source, tree), 2);
   }
   if (!unconfirmed()) return end;
@@ -275,15 +275,14 @@ CoarseEnd hop_basins(const PointCloud& source, RefineTarget& target, const Eigen
   return best;
 }
 
-// `source`, or a copy with normals when the method needs them and it has none.
-const PointCloud& with_normals(const PointCloud& source, const RefineSettings& settings,
-                               PointCloud& copy) {
-  if (!needs_source_normals(settings.method) || source.has_normals()) return source;
+// `source`, or a copy with normals when `method` needs them and it has none (settings.normals).
+const PointCloud& with_normals(const PointCloud& source, IcpMethod method,
+                               const RefineSettings& settings, PointCloud& copy) {
+  if (!needs_source_normals(method) || source.has_normals()) return source;
   if (source.size() < static_cast<std::size_t>(settings.normals.k))
-    throw DataError(
-        "source",
-        std::to_string(source.size()) + " points; " + to_string(settings.method) +
-            " needs at least the normal neighbourhood k = " + std::to_string(settings.normals.k));
+    throw DataError("source", std::to_string(source.size()) + " points; " + to_string(method) +
+                                  " needs at least the normal neighbourhood k = " +
+                                  std::to_string(settings.normals.k));
   copy = source;
   NormalSettings ns = settings.normals;
   ns.threads = settings.threads;
@@ -324,16 +323,12 @@ void refine_schedule(const PointCloud& source, RefineTarget& target, const Eigen
       if (!needs_source_normals(method))
         return coarse_stages(coarse_source, start, diagonal, floor, stages, run);
       if (coarse_source.size() < static_cast<std::size_t>(settings.normals.k)) return end;
-      if (!oriented) {
-        RefineSettings with = settings;
-        with.method = method;
-        oriented = &with_normals(coarse_source, with, copy);
-      }
+      if (!oriented) oriented = &with_normals(coarse_source, method, settings, copy);
       return coarse_stages(*oriented, start, diagonal, floor, stages, run);
     };
     end = hop_basins(
         coarse_source, target, init, end, std::max(floor, kFinalSigmas * end.sigma), spacing,
-        coarse.threads, settings, out, candidate,
+        settings, out, candidate,
         [&](const Eigen::Isometry3d& T, double reach) { return measure(coarse_source, T, reach); });
   }
   Eigen::Isometry3d T = end.T;
@@ -366,7 +361,7 @@ RefineResult refine(const PointCloud& given_source, RefineTarget& target,
             (automatic ? std::string("refinement") : std::string(to_string(settings.method))) +
             " needs at least the normal neighbourhood k = " + std::to_string(target.normal_k()));
   PointCloud copy;
-  const PointCloud& source = with_normals(given_source, settings, copy);
+  const PointCloud& source = with_normals(given_source, settings.method, settings, copy);
   auto unrecorded = [&](const PointCloud& from, const Eigen::Isometry3d& T, const IcpSettings& s) {
     IcpResult r = target.surface() ? icp(from, *target.surface(), T, s)
                   : normals        ? icp(from, *normals, T, s)
