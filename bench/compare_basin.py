@@ -4,7 +4,7 @@ Open3D 0.16's ICP, on the same scenes from the same starting poses in the same r
 
 Usage:
   bench/compare_basin.py [--trials 8] [--seed 1] [--threads 2] [--cache DIR] [--json FILE]
-                         [--figures DIR] [--quick]
+                         [--figures DIR] [--quick] [--scenes a,b] [--align3d-only | --peers-only]
 
 Scenes: those of `align3d evaluate` (`--scenes-only` writes them): the chapter scene and partial
 views of a bracket, a bumpy sphere and an animal (~60 % overlap, 5 % outliers), each a source, a
@@ -115,18 +115,18 @@ def open3d_target(o3d, cloud):
     return pcd
 
 
-def systems(peers=True):
-    names = [f"align3d {m}" for m in ALIGN3D_METHODS]
+def systems(peers=True, ours=True):
+    names = [f"align3d {m}" for m in ALIGN3D_METHODS] if ours else []
     return names + ([f"Open3D {k} D={int(round(100 * D))}%" for k, D in OPEN3D_RUNS] if peers
                     else [])
 
 
-def run_scene(align3d, o3d, scene, angles, shifts, trials, seed, threads, index, peers):
+def run_scene(align3d, o3d, scene, angles, shifts, trials, seed, threads, index, peers, ours):
     """Success counts [system][shift][angle] and total seconds per system."""
     L, truth = scene["diagonal"], scene["truth"]
     centroid = np.mean(scene["target"].points, axis=0)
     target_o3d = open3d_target(o3d, scene["target"])
-    names = systems(peers)
+    names = systems(peers, ours)
     success = {n: np.zeros((len(shifts), len(angles)), dtype=int) for n in names}
     seconds = {n: 0.0 for n in names}
     for i, shift in enumerate(shifts):
@@ -137,7 +137,7 @@ def run_scene(align3d, o3d, scene, angles, shifts, trials, seed, threads, index,
                 moved = scene["source"].transformed(P @ truth)
                 expected = np.linalg.inv(P)
                 results = {}
-                for m in ALIGN3D_METHODS:
+                for m in ALIGN3D_METHODS if ours else []:
                     t0 = time.perf_counter()
                     try:
                         T = align3d.register(moved, scene["target"], init="identity", method=m,
@@ -148,7 +148,7 @@ def run_scene(align3d, o3d, scene, angles, shifts, trials, seed, threads, index,
                         T = np.eye(4)
                     results[f"align3d {m}"] = (T, time.perf_counter() - t0)
                 for (kind, D), name in zip(OPEN3D_RUNS if peers else [],
-                                           names[len(ALIGN3D_METHODS):]):
+                                           names[len(ALIGN3D_METHODS) if ours else 0:]):
                     t0 = time.perf_counter()
                     T = open3d_register(o3d, moved.points, moved.normals, target_o3d, kind, D * L)
                     results[name] = (T, time.perf_counter() - t0)
@@ -218,8 +218,13 @@ def main():
     ap.add_argument("--json", help="write every grid and time here")
     ap.add_argument("--figures", help="write basin_peers_<scene>.svg here")
     ap.add_argument("--quick", action="store_true", help="1 trial, a 2×2 grid: the machinery only")
-    ap.add_argument("--align3d-only", action="store_true", help="leave the peers out")
+    ap.add_argument("--scenes", help="comma-separated scene names (default: all; the starts of a "
+                    "scene do not depend on which others run)")
+    only = ap.add_mutually_exclusive_group()
+    only.add_argument("--align3d-only", action="store_true", help="leave the peers out")
+    only.add_argument("--peers-only", action="store_true", help="leave align3d out")
     a = ap.parse_args()
+    peers, ours = not a.align3d_only, not a.peers_only
     try:
         import open3d as o3d
     except ImportError:
@@ -230,18 +235,25 @@ def main():
     angles, shifts, trials = (([0, 30], [0, 0.1], 1) if a.quick else (ANGLES, SHIFTS, a.trials))
     cache = a.cache or tempfile.mkdtemp(prefix="align3d-basin-")
     scenes = load_scenes(align3d, cache)
+    wanted = a.scenes.split(",") if a.scenes else [s["name"] for s in scenes]
+    unknown = set(wanted) - {s["name"] for s in scenes}
+    if unknown:
+        sys.exit(f"--scenes: no scene {', '.join(sorted(unknown))} (there are "
+                 f"{', '.join(s['name'] for s in scenes)})")
     out = {"angles_deg": angles, "shift_fractions": shifts, "trials_per_cell": trials,
            "seed": a.seed, "threads": a.threads, "scenes": []}
     for index, scene in enumerate(scenes):
+        if scene["name"] not in wanted:
+            continue
         print(f"{scene['name']}: {len(scene['source'])} / {len(scene['target'])} points",
               file=sys.stderr, flush=True)
         success, seconds = run_scene(align3d, o3d, scene, angles, shifts, trials, a.seed,
-                                     a.threads, index, not a.align3d_only)
+                                     a.threads, index, peers, ours)
         runs = trials * len(angles) * len(shifts)
         entry = {"name": scene["name"], "systems": []}
         print(f"\n### {scene['name']}\n\n| system | widest angle, all shifts ≤ 10 % | "
               f"successes | mean time (ms) |\n|---|--:|--:|--:|")
-        for name in systems(not a.align3d_only):
+        for name in systems(peers, ours):
             w = widest_angle(success[name], angles, shifts, trials)
             total = int(success[name].sum())
             ms = 1000 * seconds[name] / runs
@@ -252,7 +264,7 @@ def main():
         if a.figures:
             os.makedirs(a.figures, exist_ok=True)
             svg = svg_heatmaps(f"Convergence basin from the identity: {scene['name']}",
-                               [(n, success[n]) for n in systems(not a.align3d_only)], angles,
+                               [(n, success[n]) for n in systems(peers, ours)], angles,
                                shifts, trials)
             with open(os.path.join(a.figures, f"basin_peers_{scene['name']}.svg"), "w",
                       encoding="utf-8") as f:

@@ -1,6 +1,7 @@
 #include "align3d/align.hpp"
 
 #include <cmath>
+#include <optional>
 #include <stdexcept>
 
 #include "align3d/cloud_stats.hpp"
@@ -140,10 +141,17 @@ class Pipeline {
       source_fixed_ = std::make_unique<RefineTarget>(source, s.refine.normals, s.threads);
     refine_ = s.refine;
     refine_.threads = s.threads;
-    // Basin hopping only where ICP is all there is: with a global stage (init auto, global) an
-    // unconfirmed pose is the global stage's to mend, and hops would only add time.
-    refine_.hop = s.refine.hop && (s.init == InitPolicy::kIdentity || s.init == InitPolicy::kPose);
     refine_.source_noise = reversed_ ? target.scale.noise : source_scale_.noise;
+    // Step 3 of the ICP schedule (basin hopping, the GICP candidate) where ICP is all there is.
+    // With init auto an unconfirmed first pose is the global stage's to mend, and step 3 runs
+    // only if that stage did not (mend_unconfirmed): it would cost time on every far-off start.
+    // From a global pose, the GICP candidate but no hops.
+    thorough_ = refine_;
+    refine_.hop = s.refine.hop && (s.init == InitPolicy::kIdentity || s.init == InitPolicy::kPose);
+    if (s.init == InitPolicy::kAuto) refine_.gicp_candidate = false;
+    global_refine_ = refine_;
+    global_refine_.hop = false;
+    global_refine_.gicp_candidate = s.refine.gicp_candidate;
     global_ = s.global;
     global_.threads = s.threads;
     global_.seed = s.seed;
@@ -157,9 +165,10 @@ class Pipeline {
   void step(const std::string& task) {
     if (s_.progress) s_.progress({task, steps_done_++, 0});
   }
-  // ICP from `init`, measured; appended to the result's candidates.
+  // ICP from `init` with `settings`, measured; appended to the result's candidates.
   AlignCandidate refine_from(const Eigen::Isometry3d& init, const std::string& path,
-                             RefineResult& r);
+                             const RefineSettings& settings, RefineResult& r);
+  void mend_unconfirmed(const Eigen::Isometry3d& init, const AlignCandidate& first);
   GlobalResult run_global();
   AlignCandidate refine_global(RefineResult& r, bool& ambiguous);
   void warn_ambiguous_global();
@@ -173,7 +182,9 @@ class Pipeline {
   CloudScale source_scale_;
   bool reversed_;  // ICP moves the target onto the source (align.hpp) ...
   std::unique_ptr<RefineTarget> source_fixed_;  // ... prepared here
-  RefineSettings refine_;
+  RefineSettings refine_;                       // from the initial pose
+  RefineSettings global_refine_;                // from a global pose
+  RefineSettings thorough_;                     // from the initial pose, step 3 whatever the policy
   GlobalSettings global_;
   std::unique_ptr<SupportMeter> meter_;
   AlignResult out_;
@@ -181,11 +192,11 @@ class Pipeline {
 };
 
 AlignCandidate Pipeline::refine_from(const Eigen::Isometry3d& init, const std::string& path,
-                                     RefineResult& r) {
+                                     const RefineSettings& settings, RefineResult& r) {
   step("icp from the " + (path == "initial" ? std::string("initial") : path) + " pose");
   auto start = Clock::now();
-  r = reversed_ ? refine(target_.refine.cloud(), *source_fixed_, init.inverse(), refine_)
-                : refine(source_, target_.refine, init, refine_);
+  r = reversed_ ? refine(target_.refine.cloud(), *source_fixed_, init.inverse(), settings)
+                : refine(source_, target_.refine, init, settings);
   const Eigen::Isometry3d T = reversed_ ? r.icp.T_target_source.inverse() : r.icp.T_target_source;
   out_.timings.refine_ms += ms_since(start);
   start = Clock::now();
@@ -241,12 +252,12 @@ void Pipeline::keep(const AlignCandidate& c, RefineResult r) {
 // the better supported answer is returned, its ICP in `r`. `ambiguous` is set when neither answer
 // is clearly better supported than the other.
 AlignCandidate Pipeline::refine_global(RefineResult& r, bool& ambiguous) {
-  AlignCandidate best = refine_from(out_.global->T_target_source, "global", r);
+  AlignCandidate best = refine_from(out_.global->T_target_source, "global", global_refine_, r);
   ambiguous = false;
   if (!out_.global->ambiguous) return best;
   RefineResult r2;
   const AlignCandidate second =
-      refine_from(out_.global->second_T_target_source, "global runner-up", r2);
+      refine_from(out_.global->second_T_target_source, "global runner-up", global_refine_, r2);
   const bool failed = r.icp.stop_reason == StopReason::kTooFewCorrespondences;
   if (clearly_better(second, best, failed)) {
     r = std::move(r2);
@@ -261,6 +272,48 @@ void Pipeline::warn_ambiguous_global() {
                                             "; ICP from either pose is supported alike"});
 }
 
+// Init auto, after an unconfirmed or weak first answer: the global stage, its answer kept when
+// clearly better supported; if it is not (or found nothing) and the first run's step 3 test found
+// its pose unconfirmed, ICP from the initial pose again with step 3 (hops, the GICP candidate),
+// kept when clearly better than the first.
+void Pipeline::mend_unconfirmed(const Eigen::Isometry3d& init, const AlignCandidate& first) {
+  const bool step3 = out_.refine.unconfirmed && (thorough_.hop || thorough_.gicp_candidate);
+  out_.global = run_global();
+  std::optional<AlignCandidate> second;
+  if (out_.global->success) {
+    RefineResult r2;
+    bool ambiguous = false;
+    second = refine_global(r2, ambiguous);
+    if (clearly_better(*second, first, !out_.success)) {
+      keep(*second, std::move(r2));
+      if (ambiguous) warn_ambiguous_global();
+      return;
+    }
+  }
+  AlignCandidate kept = first;
+  if (step3) {  // else the rerun would only repeat the first
+    RefineResult r3;
+    const AlignCandidate third = refine_from(init, "initial", thorough_, r3);
+    if (clearly_better(third, first, !out_.success)) {
+      keep(third, std::move(r3));
+      kept = third;
+    }
+  }
+  if (second && !clearly_better(kept, *second, false) &&
+      distinct(kept, *second, source_, global_.distinct_rotation_deg))
+    out_.warnings.push_back(
+        {"ambiguous",
+         "ICP from the initial pose and from the global pose end " +
+             fixed(pose_error(kept.transformation, second->transformation).rotation_deg, 1) +
+             " deg apart, supported alike (overlap " + fixed(kept.support.overlap, 2) + " and " +
+             fixed(second->support.overlap, 2) + "); the initial pose's answer was kept"});
+  if (!second && kept.weak)
+    out_.warnings.push_back({"global_failed",
+                             "the answer from the initial pose is weak and global registration "
+                             "found no pose either: " +
+                                 out_.global->message});
+}
+
 AlignResult Pipeline::run() {
   const auto start = Clock::now();
   const InitPolicy policy = s_.init;
@@ -268,39 +321,14 @@ AlignResult Pipeline::run() {
   if (policy != InitPolicy::kGlobal) {
     const Eigen::Isometry3d init =
         policy == InitPolicy::kIdentity ? Eigen::Isometry3d::Identity() : s_.initial_pose;
-    // Init auto: an unconfirmed first ICP is the global stage's to mend (RefineSettings).
-    refine_.gicp_candidate = s_.refine.gicp_candidate && policy != InitPolicy::kAuto;
-    const AlignCandidate first = refine_from(init, "initial", r);
-    refine_.gicp_candidate = s_.refine.gicp_candidate;
+    const AlignCandidate first = refine_from(init, "initial", refine_, r);
     keep(first, std::move(r));
     const std::string unconfirmed = unconfirmed_because(first);
     if (policy == InitPolicy::kAuto && (first.weak || !unconfirmed.empty())) {
       out_.reason =
           "ICP from the initial pose: " +
           (first.weak ? weaknesses(out_.refine, first.support).front().message : unconfirmed);
-      out_.global = run_global();
-      if (out_.global->success) {
-        RefineResult r2;
-        bool ambiguous = false;
-        const AlignCandidate second = refine_global(r2, ambiguous);
-        if (clearly_better(second, first, !out_.success)) {
-          keep(second, std::move(r2));
-          if (ambiguous) warn_ambiguous_global();
-        } else if (!clearly_better(first, second, false) &&
-                   distinct(first, second, source_, global_.distinct_rotation_deg))
-          out_.warnings.push_back(
-              {"ambiguous",
-               "ICP from the initial pose and from the global pose end " +
-                   fixed(pose_error(first.transformation, second.transformation).rotation_deg, 1) +
-                   " deg apart, supported alike (overlap " + fixed(first.support.overlap, 2) +
-                   " and " + fixed(second.support.overlap, 2) +
-                   "); the initial pose's answer was kept"});
-      } else if (first.weak) {
-        out_.warnings.push_back({"global_failed",
-                                 "the answer from the initial pose is weak and global "
-                                 "registration found no pose either: " +
-                                     out_.global->message});
-      }
+      mend_unconfirmed(init, first);
     }
   } else {
     out_.global = run_global();

@@ -3,12 +3,14 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <stdexcept>
 
 #include "align3d/align.hpp"
 #include "align3d/se3.hpp"
 #include "align3d/synth/depth_scenes.hpp"
 #include "align3d/synth/scenes.hpp"
 #include "detail/random.hpp"
+#include "synth/outliers.hpp"
 
 namespace align3d {
 namespace {
@@ -37,14 +39,8 @@ EvalScene animal_scans() {
   const synth::ObjectViews v = synth::make_object_views(vs);
   EvalScene scene{"animal", v.views[1].valid_points(), v.views[0].valid_points(),
                   v.T_camera_object[0] * v.T_camera_object[1].inverse()};
-  Eigen::AlignedBox3d box;
-  for (const Eigen::Vector3d& p : scene.source.positions) box.extend(p);
   Random rng(vs.seed);
-  const std::size_t outliers = scene.source.size() * 5 / 95;
-  for (std::size_t i = 0; i < outliers; ++i)
-    scene.source.positions.emplace_back(rng.uniform(box.min().x(), box.max().x()),
-                                        rng.uniform(box.min().y(), box.max().y()),
-                                        rng.uniform(box.min().z(), box.max().z()));
+  synth::add_outliers(scene.source.positions, scene.source.size() * 5 / 95, rng);
   return scene;
 }
 
@@ -97,18 +93,27 @@ const char* to_string(EvalMethod m) {
   return "?";
 }
 
-std::vector<EvalScene> evaluation_scenes() {
-  std::vector<EvalScene> scenes;
-  const synth::Scene chapter = synth::make_conveyor_scene();
-  scenes.push_back({"chapter", chapter.scan, chapter.model, chapter.T_model_scan});
-  for (const char* shape : {"bracket", "bumpy-sphere"}) {
+EvalScene evaluation_scene(const std::string& name) {
+  if (name == "chapter") {
+    const synth::Scene chapter = synth::make_conveyor_scene();
+    return {name, chapter.scan, chapter.model, chapter.T_model_scan};
+  }
+  if (name == "bracket" || name == "bumpy-sphere") {
     synth::ObjectSettings s;
-    s.shape = shape;
+    s.shape = name;
     s.outlier_fraction = 0.05;
     const synth::Scene o = synth::make_object_scene(s);
-    scenes.push_back({shape, o.scan, o.model, o.T_model_scan});
+    return {name, o.scan, o.model, o.T_model_scan};
   }
-  scenes.push_back(animal_scans());
+  if (name == "animal") return animal_scans();
+  throw std::invalid_argument(
+      "evaluation scene: expected chapter, bracket, bumpy-sphere or animal, got '" + name + "'");
+}
+
+std::vector<EvalScene> evaluation_scenes() {
+  std::vector<EvalScene> scenes;
+  for (const char* name : {"chapter", "bracket", "bumpy-sphere", "animal"})
+    scenes.push_back(evaluation_scene(name));
   return scenes;
 }
 

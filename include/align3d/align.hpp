@@ -18,9 +18,12 @@
 //                   well), the
 //                   global stage runs too, ICP refines its pose, and the better supported of the
 //                   two answers is kept: the global one only when its overlap is clearly larger
-//                   (by kClearlyBetter). Two distinct poses supported alike are ambiguous (a
-//                   warning; the initial pose's answer is kept). `path` says which answer was
-//                   kept, `reason` why the global stage ran.
+//                   (by kClearlyBetter). When it is not (or the global stage found nothing),
+//                   ICP from initial_pose runs again with step 3 of its schedule (refine.hpp:
+//                   basin hopping, the GICP candidate), which the first run leaves out, and
+//                   its answer is kept when clearly better than the first. Two distinct poses
+//                   supported alike are ambiguous (a warning; the initial pose's answer is
+//                   kept). `path` says which answer was kept, `reason` why the global stage ran.
 // ICP direction: when the target is a point cloud, the source is the object and the target is
 // much wider (its robust extent more than kReverseExtentRatio × the source's: a part registered
 // into a scene), ICP runs the other way round, the target onto the source, and its answer is

@@ -26,6 +26,8 @@ struct EvalScene {
 // sphere against their whole surface; two range scans of an animal 70° apart (61 % overlap, 5 %
 // outliers added to the source).
 std::vector<EvalScene> evaluation_scenes();
+// One of them by name (chapter, bracket, bumpy-sphere, animal); std::invalid_argument otherwise.
+EvalScene evaluation_scene(const std::string& name);
 
 // What runs from each starting pose: ICP alone (refine's defaults, init identity) with each
 // metric, the global stage (fpfh) then ICP, or align()'s default (init auto).

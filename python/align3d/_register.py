@@ -374,7 +374,8 @@ def register(
     library's:
 
     - ``init``: ``"auto"`` (ICP from the identity; when that answer is not well supported, the
-      global stage runs too and the better supported answer is kept), ``"identity"``,
+      global stage runs too and the better supported answer is kept, and when that does not
+      help, ICP from the identity again with basin hopping), ``"identity"``,
       ``"global"`` (global registration first: any starting pose), or the initial pose: a 4x4
       array or a transform file (ICP starts there).
     - ``method``: the final ICP metric, ``"point-to-plane"``, ``"point-to-point"``, ``"gicp"``

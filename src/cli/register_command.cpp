@@ -146,7 +146,8 @@ Command add_register(CLI::App& app, Streams io) {
       "in "
       "point-to-plane); when that answer is not well supported (less than half of the smaller "
       "cloud on the other's surface, RMS above the noise, free directions, no convergence), global "
-      "registration runs too and the better supported answer is kept (--init auto). Distances "
+      "registration runs too and the better supported answer is kept, and when that does not "
+      "help, ICP from the identity again with basin hopping (--init auto). Distances "
       "scale with the data: the global stage's sampling follows the smaller cloud (the object), "
       "ICP's the target's spacing. A result that may still be wrong is reported with warnings on "
       "stderr and in the report; --strict makes them exit code 7.");

@@ -202,11 +202,11 @@ CoarseEnd coarse_stages(const PointCloud& source, const Eigen::Isometry3d& init,
 
 // Step 3 of refine.hpp, basin hopping: `end` when its pose is confirmed (RMS within `reach` at
 // most kConfirmedRms × noise_floor(σ₀, spacing)); else candidates are tried, each the coarse stages
-// (`coarse(start, method)`) from a start, and one that pairs clearly more source points within
-// `reach` is kept: hops along the weakest direction of the kept pose's system (settings.hop; again
-// from a kept pose still unconfirmed, at most kHopChain times), then, if still unconfirmed, GICP's
-// from `init` (settings.gicp_candidate), and if it is kept, hops from it with GICP's stages. The
-// candidates' stages are recorded with StageRecord::hop.
+// (`coarse(start, method)`) from a start, and one that lays clearly more source points within
+// max(3 s, 4 σ₀) of the target is kept: hops along the weakest direction of the kept pose's
+// system (settings.hop; again from a kept pose still unconfirmed, at most kHopChain times), then,
+// if still unconfirmed, GICP's from `init` (settings.gicp_candidate), and if it is kept, hops from
+// it with GICP's stages. The candidates' stages are recorded with StageRecord::hop.
 template <class Coarse, class Measure>
 CoarseEnd hop_basins(const PointCloud& source, RefineTarget& target, const Eigen::Isometry3d& init,
                      const CoarseEnd& end, double reach, double spacing,
@@ -215,9 +215,12 @@ CoarseEnd hop_basins(const PointCloud& source, RefineTarget& target, const Eigen
   IcpResult here = measure(end.T, reach);
   const double sq_target_noise = target.noise() * target.noise();
   double sq_source_noise = 0;  // σ₀ ≥ the target's noise: the source's is measured when in doubt
+  // Too few pairs within the reach (the coarse stages broke off far from the object) is no
+  // confirmation, whatever the RMS of those few.
   auto unconfirmed = [&] {
-    return here.rms >
-           kConfirmedRms * noise_floor(std::sqrt(sq_source_noise + sq_target_noise), spacing);
+    return here.stop_reason == StopReason::kTooFewCorrespondences ||
+           here.rms >
+               kConfirmedRms * noise_floor(std::sqrt(sq_source_noise + sq_target_noise), spacing);
   };
   if (!unconfirmed()) return end;
   if (settings.source_noise >= 0) {
@@ -226,21 +229,31 @@ CoarseEnd hop_basins(const PointCloud& source, RefineTarget& target, const Eigen
     const KdTree tree(source.positions, settings.threads);
     sq_source_noise = std::pow(surface_noise(source, tree), 2);
   }
-  if (!unconfirmed()) return end;
+  out.unconfirmed = unconfirmed();
+  if (!out.unconfirmed || !(settings.hop || settings.gicp_candidate)) return end;
+  // Candidates are compared by the source points they lay within a reach of the data's noise
+  // (not `reach`, which grows with the RMS of the pose the coarse stages reached: where those
+  // broke off far from the object it let almost every point count for any candidate).
+  const double overlap_reach =
+      std::max(kFinalSpacings * spacing,
+               kFinalSigmas * noise_floor(std::sqrt(sq_source_noise + sq_target_noise), spacing));
+  auto overlap = [&](const Eigen::Isometry3d& T) {
+    return static_cast<double>(measure(T, overlap_reach).correspondences);
+  };
   const double margin = kClearlyBetter * static_cast<double>(source.size());
   CoarseEnd best = end;
+  double best_overlap = overlap(end.T);
   IcpMethod method = IcpMethod::kPointToPlane;  // the cost that reached `best`
   auto try_candidate = [&](const Eigen::Isometry3d& start, IcpMethod cost) {
     const std::size_t first = out.stages.size();
     const CoarseEnd candidate = coarse(start, cost);
     ++out.hops;
     for (std::size_t k = first; k < out.stages.size(); ++k) out.stages[k].hop = true;
-    IcpResult there = measure(candidate.T, reach);
-    if (static_cast<double>(there.correspondences) <=
-        static_cast<double>(here.correspondences) + margin)
-      return false;
+    const double there = overlap(candidate.T);
+    if (there <= best_overlap + margin) return false;
     best = candidate;
-    here = std::move(there);
+    best_overlap = there;
+    here = measure(candidate.T, reach);
     method = cost;
     out.hopped = true;
     return true;
@@ -314,7 +327,7 @@ void refine_schedule(const PointCloud& source, RefineTarget& target, const Eigen
   coarse.termination = {kCoarseIterations, 1e-4, true, 1e-5, 1e-6};
   coarse.kernel = RobustKernel::kGemanMcClure;
   CoarseEnd end = coarse_stages(coarse_source, init, diagonal, floor, coarse, run);
-  if (settings.hop || settings.gicp_candidate) {
+  {
     PointCloud copy;
     const PointCloud* oriented = nullptr;  // the coarse source with normals, for GICP's candidates
     auto candidate = [&](const Eigen::Isometry3d& start, IcpMethod method) {

@@ -11,6 +11,7 @@
 #include "align3d/synth/depth_scenes.hpp"
 #include "align3d/synth/shapes.hpp"
 #include "detail/random.hpp"
+#include "synth/outliers.hpp"
 
 namespace align3d::synth {
 namespace {
@@ -144,19 +145,6 @@ void to_scanner(std::vector<Eigen::Vector3d>& points, const Eigen::Isometry3d& T
   add_noise(points, sigma, rng);
 }
 
-// Appends n points scattered uniformly in the bounding box of `points`; returns n.
-std::size_t add_outliers(std::vector<Eigen::Vector3d>& points, std::size_t n, Random& rng) {
-  Eigen::AlignedBox3d box;
-  for (const auto& p : points) box.extend(p);
-  for (std::size_t i = 0; i < n; ++i) {
-    const double x = rng.uniform(box.min().x(), box.max().x());
-    const double y = rng.uniform(box.min().y(), box.max().y());
-    const double z = rng.uniform(box.min().z(), box.max().z());
-    points.emplace_back(x, y, z);
-  }
-  return n;
-}
-
 Primitives conveyor_parts(const ConveyorSettings& s) {
   Primitives parts;
   parts.push_back(
@@ -172,6 +160,18 @@ Primitives conveyor_parts(const ConveyorSettings& s) {
 }
 
 }  // namespace
+
+std::size_t add_outliers(std::vector<Eigen::Vector3d>& points, std::size_t n, Random& rng) {
+  Eigen::AlignedBox3d box;
+  for (const auto& p : points) box.extend(p);
+  for (std::size_t i = 0; i < n; ++i) {
+    const double x = rng.uniform(box.min().x(), box.max().x());
+    const double y = rng.uniform(box.min().y(), box.max().y());
+    const double z = rng.uniform(box.min().z(), box.max().z());
+    points.emplace_back(x, y, z);
+  }
+  return n;
+}
 
 ConveyorSettings ConveyorSettings::variant(const std::string& name) {
   ConveyorSettings s;

@@ -17,11 +17,13 @@
 //      confirmed by the data: its point-to-plane RMS within the final reach τ_f = max(3 s, 4 σ̂)
 //      (σ̂: the last coarse stage's RMS, i.e. the noise) above kConfirmedRms × the noise of the
 //      two clouds, σ₀ = √(σ_source² + σ_target²) (surface_noise, cloud_stats.hpp; at least
-//      kNoiseFloorSpacings × s), the test align() calls unconfirmed. The coarse stages run again
+//      kNoiseFloorSpacings × s), or too few pairs within τ_f (the stages broke off far from the
+//      object), the test align() calls unconfirmed. The coarse stages run again
 //      from the pose moved along the direction their last system constrains least (Gelfand et al.
 //      2003: a near-symmetry, where ICP's pairs exert almost no pull) by ±kHopStep (a turn of 29°),
 //      then ±2 kHopStep (57°) if none of those is clearly better; a start is kept when it lays
-//      kClearlyBetter more of the source within τ_f of the target. From a
+//      kClearlyBetter more of the source within max(3 s, 4 σ₀) of the target (a reach of the
+//      data's noise, whatever the candidates' RMS). From a
 //      kept pose still unconfirmed the hops go on, at most kHopChain times. If the pose is still
 //      unconfirmed after them, GICP's coarse stages from the start are one more candidate (the
 //      source's normals are estimated for it), kept on the same test, and the hops from it
@@ -125,15 +127,15 @@ struct RefineSettings : CostSettings {
   // (GICP, symmetric) and it has none (k; threads ignored).
   NormalSettings normals;
   int threads = 0;  // 0: all cores; the result does not depend on it
-  // Basin hopping (step 3 of `auto`). align() hops only with init identity or a given pose: with
-  // a global stage (init auto, global) that stage mends an unconfirmed pose, and hops from a
-  // far-off start cost up to 3 × 4 reruns of the coarse stages (`align3d evaluate`'s default rows
-  // took 1.5-2.3× the time when its first ICP hopped).
+  // Basin hopping (step 3 of `auto`). align() hops with init identity or a given pose; with init
+  // auto only when the global stage did not mend an unconfirmed first pose (align.hpp): hops from
+  // a far-off start cost up to 3 × 4 reruns of the coarse stages (`align3d evaluate`'s default
+  // rows took 1.5-2.3× the time when its first ICP hopped). Never from a global pose.
   bool hop = true;
   // GICP's coarse stages from the start, a candidate of step 3 of `auto` (tried after the hops)
-  // when the pose is still unconfirmed. align() leaves it out of init auto's first ICP, which the
-  // global stage mends when unconfirmed (with it, `align3d evaluate`'s default rows took 1.4-1.5×
-  // the time in a 30-trial scratch run).
+  // when the pose is still unconfirmed. align() leaves it out of init auto's first ICP, as the
+  // hops (with it, `align3d evaluate`'s default rows took 1.4-1.5× the time in a 30-trial scratch
+  // run), and tries it from a global pose.
   bool gicp_candidate = true;
   // The source's surface_noise (cloud_stats.hpp) when the caller has measured it (align() has);
   // < 0: step 3 of `auto` measures it when in doubt.
@@ -213,6 +215,9 @@ struct RefineResult {
   double point_spacing = 0;  // the target spacing s used for `auto` (0 otherwise)
   int hops = 0;              // candidates step 3 tried (`auto` only; 0: the pose was confirmed)
   bool hopped = false;       // one of them was kept
+  // Step 3's test found the coarse stages' pose unconfirmed (`auto` only; measured even with
+  // neither hops nor the GICP candidate, so a caller knows whether step 3 would try candidates).
+  bool unconfirmed = false;
   // Target normals estimated so far when the target has none: only where pairs needed them
   // (normals.hpp, NormalCache), and of those, the neighbourhoods with no plane.
   std::size_t estimated_normals = 0;
