@@ -149,9 +149,8 @@ class Pipeline {
     thorough_ = refine_;
     refine_.hop = s.refine.hop && (s.init == InitPolicy::kIdentity || s.init == InitPolicy::kPose);
     if (s.init == InitPolicy::kAuto) refine_.gicp_candidate = false;
-    global_refine_ = refine_;
+    global_refine_ = thorough_;
     global_refine_.hop = false;
-    global_refine_.gicp_candidate = s.refine.gicp_candidate;
     global_ = s.global;
     global_.threads = s.threads;
     global_.seed = s.seed;

@@ -15,6 +15,8 @@
 namespace align3d {
 namespace {
 
+constexpr const char* kEvaluationScenes[] = {"chapter", "bracket", "bumpy-sphere", "animal"};
+
 Eigen::Vector3d random_unit(Random& rng) {
   // Uniform on the sphere: z uniform in [−1, 1], azimuth uniform.
   const double z = rng.uniform(-1, 1), phi = rng.uniform(0, 6.283185307179586);
@@ -106,14 +108,15 @@ EvalScene evaluation_scene(const std::string& name) {
     return {name, o.scan, o.model, o.T_model_scan};
   }
   if (name == "animal") return animal_scans();
-  throw std::invalid_argument(
-      "evaluation scene: expected chapter, bracket, bumpy-sphere or animal, got '" + name + "'");
+  std::string names;
+  for (const char* n : kEvaluationScenes) names += std::string(names.empty() ? "" : ", ") + n;
+  throw std::invalid_argument("evaluation scene: expected one of " + names + ", got '" + name +
+                              "'");
 }
 
 std::vector<EvalScene> evaluation_scenes() {
   std::vector<EvalScene> scenes;
-  for (const char* name : {"chapter", "bracket", "bumpy-sphere", "animal"})
-    scenes.push_back(evaluation_scene(name));
+  for (const char* name : kEvaluationScenes) scenes.push_back(evaluation_scene(name));
   return scenes;
 }
 
