@@ -13,11 +13,12 @@ Sets (generated once into --cache and reused; without --cache into a temporary f
             organized PCDs in their own camera frames; truth: pair_0_K.txt (view_0 ≈ T·view_K).
   bracket   `align3d synth --scene stitch`: the machined bracket (a 120 × 80 × 40 block with a
             pocket, holes and a boss on top: box-like, so its side views match turned by 90° or
-            180°) tilted 30°, a ring of 8 views (+35° / +5° elevation) and a leaf view from below
-            that overlaps only one; truth.json.
+            180°) tilted 30°, a ring of 8 views (+50° / +25° elevation, the leaf's parent at +5°)
+            and a leaf view from below that overlaps only its parent; truth.json.
   flange    `align3d synth --scene stitch --part flange`: the same rig around the keyed flange
             (turned, near-symmetric: three small lugs tell its turn).
   bracket12 / flange12: the same with `--views 12` (ring views 30° apart).
+  bracket_ring / flange_ring: the 8-view rings without the leaf (`--no-leaf`).
 Inputs are given in the generator's order (for Open3D, whose multiway registration takes the order
 as its odometry, that order is the ring's: an advantage align3d does not use).
 
@@ -58,6 +59,8 @@ SETS = {
     "flange": ["--scene", "stitch", "--part", "flange"],
     "bracket12": ["--scene", "stitch", "--views", "12"],
     "flange12": ["--scene", "stitch", "--part", "flange", "--views", "12"],
+    "bracket_ring": ["--scene", "stitch", "--no-leaf"],
+    "flange_ring": ["--scene", "stitch", "--part", "flange", "--no-leaf"],
 }
 TARGET_DEG, TARGET_SHARE = 0.1, 0.001
 

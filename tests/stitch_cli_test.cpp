@@ -355,25 +355,29 @@ TEST_F(StitchScene, EveryOutputIsWritten) {
 }
 
 // Never silently wrong: a connected scan placed more than 1° or 1 % of the diameter from the truth
-// (the engine turns some of this set's box-like views today: issue 17) comes with the warning of
-// the final check, on stderr and in the report.
+// (on this set the leaf's parent, when joined: issue 17) carries a warning that says its pose may
+// be wrong (its pose's `warnings` in the report, and stderr names it).
 TEST_F(StitchScene, AWrongPoseIsNeverReportedSilently) {
   const CliRun& r = full_run();
   ASSERT_TRUE(r.code == 0 || r.code == code(ExitCode::kUnconnected)) << r.err;
   const auto j = nlohmann::json::parse(read_text(*dir_ / "r.json"));
   const double diameter = (*truth_)["diameter"].get<double>();
-  std::size_t wrong = 0;
   for (std::size_t k = 0; k < j["poses"].size(); ++k) {
-    if (!j["poses"][k]["connected"].get<bool>()) continue;
-    const Eigen::Isometry3d pose = matrix(j["poses"][k]["transformation"]);
-    if (test::rotation_error_deg(pose, truth(k)) > 1 ||
-        (pose.translation() - truth(k).translation()).norm() > 0.01 * diameter)
-      ++wrong;
+    const auto& p = j["poses"][k];
+    if (!p["connected"].get<bool>()) continue;
+    const Eigen::Isometry3d pose = matrix(p["transformation"]);
+    if (test::rotation_error_deg(pose, truth(k)) <= 1 &&
+        (pose.translation() - truth(k).translation()).norm() <= 0.01 * diameter)
+      continue;
+    bool doubted = false;
+    for (const auto& w : p["warnings"])
+      doubted =
+          doubted || w == "single_edge_scan" || w == "ambiguous_scans" || w == "inconsistent_scans";
+    EXPECT_TRUE(doubted) << "scan " << k << " is wrong: " << p["warnings"];
+    EXPECT_TRUE(mentions(r.err, "scan " + std::to_string(k)) ||
+                mentions(r.err, "scan(s) " + std::to_string(k)))
+        << r.err;
   }
-  bool warned = false;
-  for (const auto& w : j["warnings"]) warned = warned || w["code"] == "inconsistent_scans";
-  EXPECT_EQ(warned, wrong > 0) << wrong << " wrong poses";
-  EXPECT_EQ(mentions(r.err, "contradict each other"), wrong > 0) << r.err;
 }
 
 TEST_F(StitchScene, NoScanIndexLeavesThePropertyOutAndTheFirstScanGivesTheFrame) {

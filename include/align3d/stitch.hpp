@@ -3,39 +3,47 @@
 //
 // The input order carries no meaning (a turntable's order, a file listing, a shuffle give the same
 // poses up to the first scan's frame). The steps:
-//   1. pairs: every pair of scans is registered by the global stage alone (coarse/global.hpp, FPFH
-//      and RANSAC on the scans thinned to its voxel; each scan's descriptors kept across its
-//      pairs); a pair whose answer lays at least `min_overlap` of the smaller scan's thinned
-//      points on the other's surface (surface_fit) is an edge. Nothing assumes neighbours in the
-//      list are neighbours on the object.
-//   2. edges: each edge is refined by align() from that pose at full resolution; it records the
-//      pose, its overlap, RMS and its information matrix (icp/information.hpp: the point-to-plane
-//      ICP Hessian at the optimum over the noise variance). Then free space: each scan of the
-//      pair, moved into the other's frame, must not lie in front of what the other's sensor saw
-//      (a depth map of the other scan by direction from its viewpoint); an edge with more than
-//      kMaxFreeSpace of its points there is contradicted and dropped. A box-like part turned by a
-//      quarter or a half fits its faces onto the other scan's faces well (overlap and RMS alike),
-//      but puts its other faces where the other sensor saw through: measured on the test object's
-//      six views, right edges 0–1 %, wrong ones 13–33 %.
+//   1. pairs (stitch/pair_candidates.hpp): every pair of scans, several candidate poses each: point
+//      pair feature voting of one scan against the other's table (the scans thinned to 1/40 of
+//      the object's size), the strongest pose clusters refined by ICP, kept when at least
+//      `min_overlap` of the smaller scan lies on the other's surface, when the fit is at the noise
+//      (a view of a box laid on a large wavy sheet overlaps it coarsely, not at the noise), and
+//      when neither scan lies in front of what the other's sensor saw (free space: a depth map of
+//      each scan by direction from its viewpoint); scored by overlap less free space. A box-like
+//      part's plain faces fit each other turned by a quarter or a half, and a near-symmetric
+//      part's views fit each other turned about its axis, often better than the truth: the truth
+//      is among a pair's few best, not always first. Nothing assumes neighbours in the list are
+//      neighbours on the object.
+//   2. the choice (stitch/selection.hpp): one pose per scan for the whole set at once. Candidates
+//      that close loops with others (i→k→j composes to i→j) are taken first, scans are joined
+//      into groups (Kruskal) unless a join makes two scans of the groups contradict each other
+//      (free space), and of the choices that leave out one early join the one most candidates
+//      agree with is kept. A scan that another placement fits nearly as well is ambiguous (the
+//      warning `ambiguous_scans`). Each pair's candidate that agrees with the choice is its edge,
+//      refined at full resolution (ICP at 2, 1 and ½ of the pair's reach, Geman-McClure), with
+//      its overlap, RMS and information matrix (icp/information.hpp: the point-to-plane ICP
+//      Hessian at the optimum over the noise variance); a pair none agrees with is reported, not
+//      kept ("inconsistent").
 //   3. the pose graph (stitch/pose_graph.hpp): poses from a maximum spanning tree of the edges by
 //      overlap, then all optimised at once with Ceres (a robust loss on every edge); an edge that
 //      disagrees with the optimised graph by more than prune_rotation_deg or prune_translation ×
 //      the object's diameter is pruned, the worst first, and the graph re-optimised without it.
 //   4. multi-view ICP (stitch/multiview_icp.hpp): every scan against its neighbours (the kept
 //      edges) in the optimised frame, all poses solved together, so the residual is spread over
-//      the loop instead of accumulating along it.
+//      the loop instead of accumulating along it: pairs within the pairs' reach, then within a
+//      spacing or three noise levels.
 //   5. the merged cloud (stitch/merge.hpp): the scans in the first scan's frame, one point per
 //      voxel (size from the scans' point spacing, or `voxel`), normals oriented towards the sensor
 //      of the scan they came from and averaged, the scan index of each merged point.
 //   6. the check: every two connected scans at their final poses, joined by an edge or not, must
 //      not contradict each other (the free-space test of step 2, counting the points that face
 //      the other sensor at less than 70°): more than kMaxInconsistency of one in front of what
-//      the other saw is the warning `inconsistent_scans`. Wrong edges that agree with each other
-//      (a box's side views turned by a half, each fitting its neighbour) pass steps 2 and 3 and
-//      show only here. Measured on the generated sets (bench/compare_stitch.py): at the true poses
-//      every pair ≤ 3 %; at the wrong results, up to 100 %.
+//      the other saw is the warning `inconsistent_scans`. Measured on the generated sets
+//      (bench/compare_stitch.py): at the true poses every pair ≤ 3 %; at the wrong results, up to
+//      100 %.
 // Scans that no kept edge connects to the first scan are reported (`connected` false, a warning),
-// never forced in; they are left out of the merged cloud.
+// never forced in; they are left out of the merged cloud. A scan whose pose may be wrong (held by
+// one edge, ambiguous, or inconsistent) lists those warnings in its own StitchScan::warnings.
 //
 // Conventions: `transformation` of a scan maps it into the frame of the first scan given
 // (scan_0 ≈ T·scan_k); an edge's maps its source scan into its target scan's frame
@@ -56,8 +64,6 @@
 
 namespace align3d {
 
-// Free space (step 2): the largest share of a pair's points allowed in front of the other's view.
-constexpr double kMaxFreeSpace = 0.05;
 // The check (step 6): the largest share of one stitched scan allowed in front of another's view.
 constexpr double kMaxInconsistency = 0.1;
 // The merged cloud's default voxel, in median point spacings of the scans.
@@ -99,9 +105,9 @@ struct StitchEdge {
   std::size_t pairs = 0;                               // of the information matrix
   Eigen::Vector3d centroid = Eigen::Vector3d::Zero();  // of those pairs, target frame
   bool kept = false;
-  // Why it was not kept, empty when kept: "weak" (ICP found no solution from the pair's pose, or
-  // fewer than 6 pairs), "contradicted" (free space above kMaxFreeSpace), "pruned" (disagrees
-  // with the pose graph).
+  // Why it was not kept, empty when kept: "weak" (fewer than 6 pairs at the refined pose),
+  // "inconsistent" (none of the pair's candidates agrees with the chosen poses: step 2), "pruned"
+  // (disagrees with the pose graph).
   std::string status;
   // The final poses against this edge: the rotation angle (degrees) of the disagreement
   // E = X_target⁻¹·X_source·T⁻¹ and the distance it moves `centroid` (data units); NaN when a
@@ -119,6 +125,10 @@ struct StitchScan {
   // multi-view ICP's reach) in the final poses: their count, RMS, median and 95th percentile.
   std::size_t pairs = 0;
   double rms = 0, median = 0, p95 = 0;
+  // The codes of the result's warnings that name this scan (unconnected_scan, single_edge_scan,
+  // ambiguous_scans, inconsistent_scans), in the result's order: with any but the first its pose
+  // may be wrong.
+  std::vector<std::string> warnings;
 };
 
 struct StitchTimings {

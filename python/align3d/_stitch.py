@@ -55,7 +55,7 @@ class StitchResult(_Report):
         """Every pair found to overlap, kept or not, by (source, target): dicts with ``source``,
         ``target`` (input indices), ``source_file``, ``target_file``, ``transformation`` (4x4,
         target ≈ T·source), ``overlap``, ``rms``, ``pairs``, ``free_space``, ``kept``, ``status``
-        ("" when kept, else ``weak``, ``contradicted`` or ``pruned``), ``rotation_residual_deg``,
+        ("" when kept, else ``weak``, ``inconsistent`` or ``pruned``), ``rotation_residual_deg``,
         ``translation_residual``, ``information`` (6x6 array) and ``warnings``."""
         out = []
         for e in self._report["edges"]:

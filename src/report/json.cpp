@@ -58,7 +58,8 @@ nlohmann::json stitch_pose_json(const StitchScan& s, const InputInfo& in) {
           {"connected", s.connected},
           {"points", s.points},
           {"edges", s.edges},
-          {"residual", {{"pairs", s.pairs}, {"rms", s.rms}, {"median", s.median}, {"p95", s.p95}}}};
+          {"residual", {{"pairs", s.pairs}, {"rms", s.rms}, {"median", s.median}, {"p95", s.p95}}},
+          {"warnings", s.warnings}};
 }
 
 nlohmann::json stitch_edge_json(const StitchEdge& e, const std::vector<InputInfo>& scans) {

@@ -32,7 +32,8 @@ void check(const StitchScanSettings& s, double radius) {
         "make_stitch_scans: the distances must put the cameras outside the object's bounding "
         "sphere (radius " +
         std::to_string(radius) + " mm)");
-  for (double e : {s.high_elevation_deg, s.low_elevation_deg, s.leaf_elevation_deg})
+  for (double e :
+       {s.high_elevation_deg, s.low_elevation_deg, s.leaf_elevation_deg, s.parent_elevation_deg})
     if (!(std::abs(e) <= kMaxElevationDeg))
       throw std::invalid_argument("make_stitch_scans: elevations must lie within ±80°");
   if (!(s.jitter_deg >= 0) || !(s.jitter_mm >= 0) || !std::isfinite(s.tilt_deg) ||
@@ -152,7 +153,8 @@ StitchScans make_stitch_scans(const StitchScanSettings& s) {
   const Eigen::Isometry3d T_object_world = T_world_object.inverse();
   Random rng(s.seed);
   for (int k = 0; k < s.views; ++k) {
-    const double e = k % 2 == 0 ? s.high_elevation_deg : s.low_elevation_deg;
+    double e = k % 2 == 0 ? s.high_elevation_deg : s.low_elevation_deg;
+    if (s.leaf && k == parent) e = s.parent_elevation_deg;
     PinholeCamera& c = out.cameras.emplace_back(s.camera);
     c.T_world_camera = T_object_world * jittered_view(k * step, e, s.distance, s, rng);
   }

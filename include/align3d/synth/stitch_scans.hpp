@@ -20,10 +20,11 @@
 // about the optical axis by up to ±jitter_deg, the distance and the aimed point's coordinates by
 // up to ±jitter_mm (uniform, seeded).
 // The object is held tilted by `tilt_deg` about a horizontal axis, its underside turned towards
-// the low ring view P = (N / 2) | 1 (`leaf_parent`; 5 of 8), as a part propped up on a turntable:
-// P sees the bottom face at about 90° + low elevation − tilt from its normal (65° with the
-// defaults), while the high views look at it from behind its plane and the other low views, 90°
-// or more away, edge-on. The leaf view (index N, when `leaf`) looks up at that underside from
+// the low ring view P = (N / 2) | 1 (`leaf_parent`; 5 of 8), as a part propped up on a turntable.
+// With a leaf, P looks from `parent_elevation_deg` (lower than the other low views) and sees the
+// bottom face at about 90° + its elevation − tilt from its normal (65° with the defaults), while
+// the high views look at it from behind its plane and the other low views, 90° or more away,
+// edge-on. The leaf view (index N, when `leaf`) looks up at that underside from
 // below, from P's azimuth, at `leaf_elevation_deg` and `leaf_distance`: it sees the bottom face
 // (the flange's lugs and rim at most at its edge), which only P of the ring sees. Measured with
 // the defaults for rings of 2 to 12 views, seeds 1 to 6 and both objects: overlap 0.55 to 0.75
@@ -76,13 +77,15 @@ struct StitchScanSettings {
   StitchObject object = StitchObject::kBracket;
   int views = 8;          // ring views, at least 2
   double distance = 450;  // eye to the rig's origin
-  double high_elevation_deg = 35, low_elevation_deg = 5;
+  double high_elevation_deg = 50, low_elevation_deg = 25;
   double tilt_deg = 30;  // the object's underside turned towards the leaf's parent
   bool leaf = true;
   double leaf_distance = 400;
   double leaf_elevation_deg = -45;  // below the horizontal: the leaf looks up
-  double jitter_deg = 3;            // azimuth, elevation, roll: uniform in ±this
-  double jitter_mm = 5;             // distance and the aimed point: uniform in ±this
+  // The leaf's parent P's elevation (with a leaf; without one P is a low view like the others).
+  double parent_elevation_deg = 5;
+  double jitter_deg = 3;  // azimuth, elevation, roll: uniform in ±this
+  double jitter_mm = 5;   // distance and the aimed point: uniform in ±this
   // A structured-light scanner at ~0.5 m, as ObjectViewsSettings': σ ≈ 0.09 mm at 450 mm.
   PinholeCamera camera{.fx = 1000, .fy = 1000};
   DepthSensorSettings sensor{.min_depth = 200,

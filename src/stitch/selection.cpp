@@ -1,0 +1,252 @@
+#include "stitch/selection.hpp"
+
+#include <algorithm>
+#include <limits>
+#include <numeric>
+
+#include "align3d/se3.hpp"
+
+namespace align3d::detail {
+
+namespace {
+
+constexpr double kAgreeDeg = 2, kAgreeShare = 0.02;
+constexpr double kMaxJoinFreeSpace = 0.02;
+constexpr double kAmbiguousShare = 0.5, kMaxAmbiguousFreeSpace = 0.01;
+constexpr std::size_t kJoinSamples = 4000;  // points a scan tests a join with, at most
+
+// The candidates of every ordered pair of scans, as indices.
+using PairIndex = std::vector<std::vector<std::vector<std::size_t>>>;
+
+// What every step of the choice reads.
+struct Context {
+  const std::vector<PairCandidate>& candidates;
+  const std::vector<ScanData>& scans;
+  const std::vector<DepthMap>& maps;
+  const std::vector<PairSearchScan>& search;
+  double voxel, tolerance;
+  PairIndex index;
+  std::vector<Eigen::Vector3d> centres;  // of each scan's points: where poses are compared
+
+  bool same(std::size_t k, const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) const {
+    return same_pose(a, b, centres[k], kAgreeDeg, tolerance);
+  }
+};
+
+// Scan `from`'s pose relative to the other scan of candidate e: other ≈ result·from.
+Eigen::Isometry3d from_to(const PairCandidate& e, std::size_t from) {
+  return e.source == from ? e.T_target_source : e.T_target_source.inverse();
+}
+
+std::vector<double> loop_support(const Context& x) {
+  std::vector<double> support(x.candidates.size(), 0);
+  for (std::size_t e = 0; e < x.candidates.size(); ++e) {
+    const PairCandidate& c = x.candidates[e];
+    for (std::size_t k = 0; k < x.scans.size(); ++k) {
+      if (k == c.source || k == c.target) continue;
+      double best = 0;
+      for (std::size_t e1 : x.index[c.source][k])
+        for (std::size_t e2 : x.index[k][c.target]) {
+          const Eigen::Isometry3d path =
+              from_to(x.candidates[e2], k) * from_to(x.candidates[e1], c.source);
+          if (x.same(c.source, path, c.T_target_source))
+            best = std::max(best, std::min(x.candidates[e1].score, x.candidates[e2].score));
+        }
+      support[e] += best;
+    }
+  }
+  return support;
+}
+
+// The free-space share between scans a and b at T (b ≈ T·a): facing points, at most kJoinSamples
+// a scan.
+double contradiction(const Context& x, std::size_t a, std::size_t b, const Eigen::Isometry3d& T) {
+  const ScanData &sa = x.scans[a], &sb = x.scans[b];
+  FreeSpacePoints facing;
+  facing.facing_only = true;
+  facing.stride =
+      std::max<std::size_t>(1, std::max(sa.cloud.size(), sb.cloud.size()) / kJoinSamples);
+  return pair_free_space(sa, sb, x.maps[a], x.maps[b], T, 2 * pair_reach(sa, sb) + x.voxel, facing);
+}
+
+// The worst free-space share between a scan of group `ga` and one of group `gb` once M maps
+// gb's frame into ga's.
+double join_contradiction(const Context& x, const Selection& s, std::size_t ga, std::size_t gb,
+                          const Eigen::Isometry3d& M) {
+  double worst = 0;
+  for (std::size_t a = 0; a < x.scans.size(); ++a) {
+    if (s.group[a] != ga) continue;
+    for (std::size_t b = 0; b < x.scans.size(); ++b)
+      if (s.group[b] == gb)
+        worst = std::max(worst, contradiction(x, a, b, (M * s.poses[b]).inverse() * s.poses[a]));
+  }
+  return worst;
+}
+
+// One Kruskal pass over `order` (candidate indices), skipping `forbidden` ones: the groups, the
+// poses, and the joins taken (candidate indices).
+struct Forest {
+  Selection s;
+  std::vector<std::size_t> joins;
+  double score = 0;  // Σ score of the candidates that agree with the poses
+};
+
+Forest kruskal(const Context& x, const std::vector<std::size_t>& order,
+               const std::vector<char>& forbidden) {
+  const std::size_t n = x.scans.size();
+  Forest f;
+  Selection& s = f.s;
+  s.poses.assign(n, Eigen::Isometry3d::Identity());
+  s.group.resize(n);
+  std::iota(s.group.begin(), s.group.end(), 0);
+  for (std::size_t e : order) {
+    if (forbidden[e]) continue;
+    const PairCandidate& c = x.candidates[e];
+    const std::size_t gi = s.group[c.source], gj = s.group[c.target];
+    if (gi == gj) continue;
+    // source ≈ T⁻¹·target: target's group frame into source's group frame.
+    const Eigen::Isometry3d M =
+        s.poses[c.source] * c.T_target_source.inverse() * s.poses[c.target].inverse();
+    if (join_contradiction(x, s, gi, gj, M) > kMaxJoinFreeSpace) continue;
+    // The group whose first scan comes first keeps its frame.
+    const bool keep_i = gi < gj;
+    const std::size_t keep = keep_i ? gi : gj, moved = keep_i ? gj : gi;
+    const Eigen::Isometry3d into = keep_i ? M : M.inverse();
+    for (std::size_t k = 0; k < n; ++k)
+      if (s.group[k] == moved) s.poses[k] = into * s.poses[k], s.group[k] = keep;
+    f.joins.push_back(e);
+  }
+  return f;
+}
+
+void mark_agreeing(const Context& x, Forest& f) {
+  Selection& s = f.s;
+  s.agrees.resize(x.candidates.size());
+  f.score = 0;
+  for (std::size_t e = 0; e < x.candidates.size(); ++e) {
+    const PairCandidate& c = x.candidates[e];
+    s.agrees[e] =
+        s.group[c.source] == s.group[c.target] &&
+        x.same(c.source, s.poses[c.target].inverse() * s.poses[c.source], c.T_target_source);
+    if (s.agrees[e]) f.score += c.score;
+  }
+}
+
+// The candidates of scan k that agree with placing it at X next to the other scans of its group:
+// their summed scores (the best per other scan) and how many other scans they reach.
+struct Agreement {
+  double score = 0;
+  std::size_t scans = 0;
+};
+Agreement agreement(const Context& x, const Selection& s, std::size_t k,
+                    const Eigen::Isometry3d& X) {
+  Agreement a;
+  for (std::size_t m = 0; m < x.scans.size(); ++m) {
+    if (m == k || s.group[m] != s.group[k]) continue;
+    double best = 0;
+    for (std::size_t e : x.index[k][m])
+      if (x.same(k, s.poses[m] * from_to(x.candidates[e], k), X))
+        best = std::max(best, x.candidates[e].score);
+    a.score += best;
+    a.scans += best > 0;
+  }
+  return a;
+}
+
+// The placements scan k's candidates give it next to the other scans of its group, distinct, and
+// not its current one.
+std::vector<Eigen::Isometry3d> placements(const Context& x, const Selection& s, std::size_t k) {
+  std::vector<Eigen::Isometry3d> out;
+  for (std::size_t m = 0; m < x.scans.size(); ++m) {
+    if (m == k || s.group[m] != s.group[k]) continue;
+    for (std::size_t e : x.index[k][m]) {
+      const Eigen::Isometry3d X = s.poses[m] * from_to(x.candidates[e], k);
+      if (x.same(k, X, s.poses[k]) ||
+          std::any_of(out.begin(), out.end(), [&](const auto& Y) { return x.same(k, X, Y); }))
+        continue;
+      out.push_back(X);
+    }
+  }
+  return out;
+}
+
+// The worst free-space share between scan k placed at X and the other scans of its group.
+double placement_contradiction(const Context& x, const Selection& s, std::size_t k,
+                               const Eigen::Isometry3d& X) {
+  double worst = 0;
+  for (std::size_t m = 0; m < x.scans.size(); ++m)
+    if (m != k && s.group[m] == s.group[k])
+      worst = std::max(worst, contradiction(x, k, m, s.poses[m].inverse() * X));
+  return worst;
+}
+
+// Scans of the first scan's group with another placement that candidates from two or more other
+// scans agree with (a loop closes there too), nearly as strongly (kAmbiguousShare of the chosen
+// placement's agreement), and that contradicts no scan: the data do not decide where they lie.
+// The box-like bracket's view that sees two plain side faces only fits its neighbours on either
+// side turned by a half as well as at the truth.
+void find_ambiguous(const Context& x, Selection& s) {
+  for (std::size_t k = 1; k < x.scans.size(); ++k) {
+    if (s.group[k] != 0) continue;
+    const Agreement chosen = agreement(x, s, k, s.poses[k]);
+    for (const Eigen::Isometry3d& X : placements(x, s, k)) {
+      const Agreement other = agreement(x, s, k, X);
+      if (other.scans < std::min<std::size_t>(2, chosen.scans) ||
+          other.score < kAmbiguousShare * chosen.score ||
+          placement_contradiction(x, s, k, X) > kMaxAmbiguousFreeSpace)
+        continue;
+      s.ambiguous.push_back(k);
+      break;
+    }
+  }
+}
+
+}  // namespace
+
+Selection select_poses(const std::vector<PairCandidate>& candidates,
+                       const std::vector<ScanData>& scans, const std::vector<DepthMap>& maps,
+                       const std::vector<PairSearchScan>& search, double diameter, double voxel) {
+  const std::size_t n = scans.size();
+  Context x{candidates,
+            scans,
+            maps,
+            search,
+            voxel,
+            kAgreeShare * diameter,
+            PairIndex(n, std::vector<std::vector<std::size_t>>(n)),
+            {}};
+  for (std::size_t e = 0; e < candidates.size(); ++e) {
+    x.index[candidates[e].source][candidates[e].target].push_back(e);
+    x.index[candidates[e].target][candidates[e].source].push_back(e);
+  }
+  for (const ScanData& d : scans) x.centres.push_back(centroid(d.cloud));
+  const std::vector<double> support = loop_support(x);
+  std::vector<std::size_t> order(candidates.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    return support[a] + candidates[a].score > support[b] + candidates[b].score;
+  });
+  // The forest of that order, then the forests with one of its joins forbidden: a wrong early
+  // join (two plain faces of a box fitted onto each other) can found a wrong group that later
+  // joins stay consistent with; without it, more candidates agree with the poses.
+  std::vector<char> forbidden(candidates.size(), 0);
+  std::vector<Forest> forests;
+  forests.push_back(kruskal(x, order, forbidden));
+  const std::vector<std::size_t> first_joins = forests.front().joins;
+  for (std::size_t e : first_joins) {
+    forbidden[e] = 1;
+    forests.push_back(kruskal(x, order, forbidden));
+    forbidden[e] = 0;
+  }
+  std::size_t best = 0;
+  for (std::size_t k = 0; k < forests.size(); ++k) {
+    mark_agreeing(x, forests[k]);
+    if (forests[k].score > forests[best].score) best = k;
+  }
+  Selection out = std::move(forests[best].s);
+  out.score = forests[best].score;
+  find_ambiguous(x, out);
+  return out;
+}
+
+}  // namespace align3d::detail

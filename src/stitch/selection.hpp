@@ -1,0 +1,43 @@
+// Step 2 of a stitch (stitch.hpp): one pose per scan from the pairs' candidates (several a pair,
+// stitch/pair_candidates.hpp), chosen for the whole set at once. Internal to the engine.
+//
+// The scans are joined into groups (Kruskal), each join by one candidate, in order of support:
+//   - a candidate (i, j, T) is supported by each third scan k through which candidates of (i, k)
+//     and (k, j) compose to T (within kAgreeDeg and kAgreeShare of the object's diameter): the
+//     smaller of their scores, the best such path per k, summed over k. Right poses close loops
+//     with each other; a wrong turn of a look-alike face rarely closes one. Candidates are taken
+//     by support plus their own score;
+//   - a join must not make any scan of one group contradict any scan of the other (free space,
+//     stitch/views.hpp, facing points, more than kMaxJoinFreeSpace): two pairs' candidates may
+//     each be self-consistent and still put two scans through each other (a box's side views
+//     turned by a half, each fitting its neighbour), and only scans no candidate joins show it.
+// The first scan's group gives the frame; scans no accepted join reaches stay apart.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <cstddef>
+#include <vector>
+
+#include "stitch/pair_candidates.hpp"
+#include "stitch/views.hpp"
+
+namespace align3d::detail {
+
+struct Selection {
+  std::vector<Eigen::Isometry3d> poses;  // scan k into the frame of its group's first scan
+  std::vector<std::size_t> group;        // the first (smallest) scan of k's group
+  // Per candidate: whether it agrees with the chosen poses (its scans in one group, its pose
+  // within kAgreeDeg and kAgreeShare of theirs): the edges the pose graph refines.
+  std::vector<bool> agrees;
+  // Scans an alternative choice places elsewhere (by more than kAgreeDeg or kAgreeShare of the
+  // diameter, relative to the first scan) while explaining nearly as many candidates (at least
+  // kAmbiguousShare of the chosen score): the data do not decide their poses. Ascending.
+  std::vector<std::size_t> ambiguous;
+  double score = 0;  // Σ score of the candidates that agree with the chosen poses
+};
+
+Selection select_poses(const std::vector<PairCandidate>& candidates,
+                       const std::vector<ScanData>& scans, const std::vector<DepthMap>& maps,
+                       const std::vector<PairSearchScan>& search, double diameter, double voxel);
+
+}  // namespace align3d::detail
