@@ -51,6 +51,13 @@ class StitchResult(_Report):
         return [bool(p["connected"]) for p in self._report["poses"]]
 
     @property
+    def scan_warnings(self) -> List[List[str]]:
+        """Per scan: the codes of the :attr:`warnings` that name it (``unconnected_scan``,
+        ``single_edge_scan``, ``ambiguous_scans``, ``inconsistent_scans``); with any but the
+        first its pose may be wrong."""
+        return [list(p["warnings"]) for p in self._report["poses"]]
+
+    @property
     def edges(self) -> List[Dict[str, Any]]:
         """Every pair found to overlap, kept or not, by (source, target): dicts with ``source``,
         ``target`` (input indices), ``source_file``, ``target_file``, ``transformation`` (4x4,

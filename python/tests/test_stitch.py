@@ -108,6 +108,12 @@ def test_the_result_reads_its_report(result):
         np.testing.assert_allclose(pose[3], [0, 0, 0, 1])
     np.testing.assert_array_equal(r.poses[0], np.eye(4))
     assert r.connected[0]
+    # Each scan's warnings are the report's that name it: an unconnected scan has its warning.
+    assert r.scan_warnings == [p["warnings"] for p in report["poses"]]
+    for k in range(n):
+        assert ("unconnected_scan" in r.scan_warnings[k]) == (not r.connected[k])
+        for code in r.scan_warnings[k]:
+            assert code in {w["code"] for w in report["warnings"]}
     for e in r.edges:
         assert e["transformation"].shape == (4, 4) and e["information"].shape == (6, 6)
         assert 0 <= e["source"] < e["target"] < n
