@@ -15,6 +15,7 @@
 #include "align3d/stitch/multiview_icp.hpp"
 #include "align3d/stitch/pose_graph.hpp"
 #include "align3d/synth/depth_scenes.hpp"
+#include "align3d/synth/stitch_scans.hpp"
 #include "test_util.hpp"
 
 namespace align3d {
@@ -253,6 +254,32 @@ TEST(Stitch, RingOfViewsWithinATenthOfADegree) {
   EXPECT_EQ(r.merged_scan.size(), r.merged.size());
   // Right poses: the final check finds no two scans contradicting each other.
   for (const Warning& w : r.warnings) EXPECT_NE(w.code, "inconsistent_scans") << w.message;
+}
+
+// The generated rings of synth/stitch_scans.hpp (no leaf): the box-like bracket, whose side views
+// fit each other turned by a quarter or a half, and the near-symmetric keyed flange, whose views
+// fit each other turned about its axis. Issue 17's target: every scan within 0.1° and, at its
+// points' centroid, 0.1 % of the object's diameter of the truth.
+TEST(Stitch, GeneratedRingsOfTheBracketAndTheFlangeAtTheTarget) {
+  for (const auto& [object, seed] : {std::pair{synth::StitchObject::kBracket, 2},
+                                     std::pair{synth::StitchObject::kKeyedFlange, 1}}) {
+    synth::StitchScanSettings g;
+    g.object = object;
+    g.seed = seed;
+    g.leaf = false;
+    const synth::StitchScans set = synth::make_stitch_scans(g);
+    StitchSettings s;
+    s.threads = 2;
+    const StitchResult r = stitch(set.scans, s);
+    for (std::size_t k = 0; k < set.scans.size(); ++k) {
+      SCOPED_TRACE(std::string(synth::to_string(object)) + " scan " + std::to_string(k));
+      ASSERT_TRUE(r.scans[k].connected);
+      const Eigen::Vector3d c = centroid(set.scans[k]);
+      EXPECT_LT(pose_error(r.scans[k].transformation, set.T_first_scan[k]).rotation_deg, 0.1);
+      EXPECT_LT((r.scans[k].transformation * c - set.T_first_scan[k] * c).norm(),
+                0.001 * set.diameter);
+    }
+  }
 }
 
 // The cost and kernel chosen reach every refinement: the symmetric objective with a Huber kernel
