@@ -76,9 +76,8 @@ struct StitchSettings {
   double prune_rotation_deg = 1.0;
   double prune_translation = 0.01;  // share of the object's diameter
   int multiview_iterations = 30;    // cap of the multi-view ICP (it stops when the poses settle)
-  // The ICP cost of each edge's refinement (align()'s schedule) and of the multi-view ICP, and
-  // their kernel. Unset kernel: the schedule's own for the edges, Geman-McClure at half the reach
-  // for the multi-view ICP; a kernel with scale 0 takes its tuning constant × σ̂ there, σ̂ the
+  // The ICP cost of each edge's refinement and of the multi-view ICP, and their kernel. Unset
+  // kernel: Geman-McClure at half the reach, for both; a kernel with scale 0 takes its tuning constant × σ̂ there, σ̂ the
   // point-to-plane noise of a pair (√2 × the noisiest scan's, cloud_stats.hpp). Point-to-point
   // pairs two scans' samples, a bias of the sampling the multi-view ICP would spread over every
   // scan (tests/stitch_test.cpp's ring from 0.5° off: still 0.3° and 2 mm off after 300

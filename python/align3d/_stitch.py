@@ -122,9 +122,10 @@ def stitch(scans: Sequence[Any], *, min_overlap: float = _DEFAULTS["min_overlap"
            scan_index: bool = True, method: str = _DEFAULTS["method"],
            kernel: str = _DEFAULTS["kernel"], kernel_scale: float = _DEFAULTS["kernel_scale"],
            strict: bool = False) -> StitchResult:
-    """Stitches many scans of one object into the frame of the first (``align3d stitch``): every
-    pair registered coarsely, the overlapping ones refined, a pose graph optimised, a multi-view
-    ICP, and the scans merged into one cloud with normals.
+    """Stitches many scans of one object into the frame of the first (``align3d stitch``): a few
+    candidate poses per pair, one pose per scan chosen for the whole set, the chosen pairs
+    refined, a pose graph optimised, a multi-view ICP, and the scans merged into one cloud with
+    normals.
 
     ``scans``: a list of at least two scans, each an (N, 3) array, a :class:`PointCloud` or a file
     name (mixed as you like); the order carries no meaning but the first gives the frame.
@@ -133,8 +134,8 @@ def stitch(scans: Sequence[Any], *, min_overlap: float = _DEFAULTS["min_overlap"
     (0: from the point spacing), ``prune_rotation`` (degrees), ``prune_translation`` (share of the
     object's diameter), ``multiview_iterations``, ``seed``, ``threads``: as the flags.
     ``method`` (``"point-to-plane"``, ``"point-to-point"``, ``"gicp"``, ``"symmetric"``),
-    ``kernel`` (``"auto"``: the pairs' schedule's own and Geman-McClure for the multi-view ICP, or
-    a kernel as :func:`register` takes) and ``kernel_scale`` (0: from the noise): the ICP cost of
+    ``kernel`` (``"auto"``: Geman-McClure at half the reach, for the pairs and the multi-view ICP,
+    or a kernel as :func:`register` takes) and ``kernel_scale`` (0: from the noise): the ICP cost of
     each pair's refinement and of the multi-view ICP (point-to-plane there for point-to-point),
     as ``--method``, ``--kernel``, ``--kernel-scale``. ``report``,
     ``output`` (PLY; ``scan_index=False`` leaves its ``scan`` property out), ``figure`` (PNG) and

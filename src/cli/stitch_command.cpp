@@ -153,16 +153,18 @@ std::string number(double v) {
 
 constexpr const char* kStitchHelp =
     "Stitch many scans of one object into one consistent surface in the frame of the first scan:\n"
-    "every pair is registered coarsely (any order of the scans, no neighbours assumed), pairs "
-    "that\n"
-    "overlap enough are refined by ICP and dropped when one scan lands where the other's sensor\n"
-    "saw through (free space), a pose graph over them is optimised with a robust loss\n"
-    "(edges that disagree with it are pruned), a multi-view ICP spreads the residual over every\n"
-    "loop, and the scans are merged into one cloud, one point per voxel, with normals towards "
-    "each\n"
-    "scan's sensor (a PCD's VIEWPOINT, else its origin) and the scan each point came from.\n"
-    "Last, every two stitched scans are checked against each other's free space: a warning\n"
-    "(inconsistent_scans) says when some pose must be wrong.\n"
+    "every pair gets a few candidate poses (point pair features and ICP; any order of the scans,\n"
+    "no neighbours assumed), each kept when it overlaps enough, fits at the noise and puts "
+    "neither\n"
+    "scan where the other's sensor saw through (free space); one pose per scan is chosen for the\n"
+    "whole set at once (candidates that close loops first; a scan that fits elsewhere about as\n"
+    "well is flagged, ambiguous_scans); the chosen pairs are refined by ICP, a pose graph over\n"
+    "them is optimised with a robust loss (edges that disagree with it are pruned), a multi-view\n"
+    "ICP spreads the residual over every loop, and the scans are merged into one cloud, one point\n"
+    "per voxel, with normals towards each scan's sensor (a PCD's VIEWPOINT, else its origin) and\n"
+    "the scan each point came from. Last, every two stitched scans are checked against each\n"
+    "other's free space: a warning (inconsistent_scans) says when some pose must be wrong. Each\n"
+    "scan's warnings are also in its pose's entry of the report.\n"
     "Each pose maps its scan into the first scan's frame (scan_0 ≈ T·scan_k); an edge's maps its\n"
     "source into its target's frame. Prints each scan's pose, connection and residual.\n"
     "Exit codes: 0 ok, 2 usage (fewer than two scans), 3 a scan or the list cannot be read, 4 a\n"
@@ -214,10 +216,9 @@ Command add_stitch(CLI::App& app, Streams io) {
   sub->add_option("--html", o->html,
                   "Write an offline HTML page: the figure, the poses, the edges, the warnings");
   add_refine_options(sub, o->refine,
-                     {"each pair's refinement (its final stage) and of the multi-view ICP (which "
-                      "runs point-to-plane for point-to-point)",
-                      "the schedule's own for the pairs, Geman-McClure at half the reach for the "
-                      "multi-view ICP"});
+                     {"each chosen pair's refinement and of the multi-view ICP (which runs "
+                      "point-to-plane for point-to-point)",
+                      "Geman-McClure at half the reach, for the pairs and the multi-view ICP"});
   add_seed(sub, s.seed);
   add_strict(sub, o->strict);
   add_quiet(sub, o->quiet);
