@@ -23,7 +23,7 @@ constexpr int kCoarseIterations = 10, kFineIterations = 10;
 constexpr double kMaxPairFreeSpace = 0.01;
 constexpr double kMaxFitRms = 10;  // step 3 (fits)
 constexpr double kCoarseDistinctDeg = 5, kFineDistinctDeg = 2;
-// The sweep (pair_candidates): turns about a common axis in steps of kSweepStepDeg, the
+// The sweep (step 2b, sweep()): turns about a common axis in steps of kSweepStepDeg, the
 // kSweepKept least contradicted kept.
 constexpr double kSweepStepDeg = 3;
 constexpr std::size_t kSweepKept = 4;
@@ -222,6 +222,36 @@ std::optional<Line> common_turn(const Pair& p, const std::vector<PairCandidate>&
   return best;
 }
 
+// The sweep: when two or more of the best candidates turn about one axis from the first (a part
+// of revolution, or nearly, seen by both scans), the first refined and turned about that axis in
+// kSweepStepDeg steps; the kSweepKept turns of least free space (local minima) of at least
+// min_overlap. The first candidate keeps its refined pose.
+std::vector<PairCandidate> sweep(const Pair& p, std::vector<PairCandidate>& list,
+                                 double min_overlap) {
+  std::vector<PairCandidate> swept;
+  if (list.size() < 3) return swept;
+  const std::optional<Line> axis = common_turn(p, list);
+  if (!axis) return swept;
+  const Eigen::Isometry3d A = fine_icp(p, list[0].T_target_source);
+  const int steps = static_cast<int>(std::lround(360 / kSweepStepDeg));
+  std::vector<double> fs(steps);
+  for (int k = 0; k < steps; ++k)
+    fs[k] = free_space(p, turn(*axis, k * 360.0 / steps) * A, 1000, 2 * p.reach);
+  std::vector<std::pair<double, int>> minima;
+  for (int k = 1; k < steps; ++k)
+    if (fs[k] <= fs[(k + steps - 1) % steps] && fs[k] <= fs[(k + 1) % steps])
+      minima.emplace_back(fs[k], k);
+  std::sort(minima.begin(), minima.end());
+  for (std::size_t m = 0; m < std::min(kSweepKept, minima.size()); ++m) {
+    PairCandidate e{p.i, p.j};
+    e.T_target_source = turn(*axis, minima[m].second * 360.0 / steps) * A;
+    e.overlap = overlap(p, e.T_target_source);
+    if (e.overlap >= min_overlap) swept.push_back(e);
+  }
+  list[0].T_target_source = A;
+  return swept;
+}
+
 }  // namespace
 
 std::vector<PairCandidate> pair_candidates(std::size_t i, std::size_t j,
@@ -241,29 +271,7 @@ std::vector<PairCandidate> pair_candidates(std::size_t i, std::size_t j,
                centroid(search[i].down),
                scans[i].scale.extent <= scans[j].scale.extent};
   std::vector<PairCandidate> list = coarse_candidates(p, min_overlap);
-  std::vector<PairCandidate> swept;
-  // The sweep: a part of revolution (or nearly) turned about its axis.
-  if (list.size() >= 3) {
-    if (const std::optional<Line> axis = common_turn(p, list)) {
-      const Eigen::Isometry3d A = fine_icp(p, list[0].T_target_source);
-      const int steps = static_cast<int>(std::lround(360 / kSweepStepDeg));
-      std::vector<double> fs(steps);
-      for (int k = 0; k < steps; ++k)
-        fs[k] = free_space(p, turn(*axis, k * 360.0 / steps) * A, 1000, 2 * p.reach);
-      std::vector<std::pair<double, int>> minima;
-      for (int k = 1; k < steps; ++k)
-        if (fs[k] <= fs[(k + steps - 1) % steps] && fs[k] <= fs[(k + 1) % steps])
-          minima.emplace_back(fs[k], k);
-      std::sort(minima.begin(), minima.end());
-      for (std::size_t m = 0; m < std::min(kSweepKept, minima.size()); ++m) {
-        PairCandidate e{i, j};
-        e.T_target_source = turn(*axis, minima[m].second * 360.0 / steps) * A;
-        e.overlap = overlap(p, e.T_target_source);
-        if (e.overlap >= min_overlap) swept.push_back(e);
-      }
-      list[0].T_target_source = A;
-    }
-  }
+  const std::vector<PairCandidate> swept = sweep(p, list, min_overlap);
   // Step 3: the best kFineKept by overlap and the swept ones refined.
   std::vector<PairCandidate> tested(list.begin(), list.begin() + std::min(kFineKept, list.size()));
   tested.insert(tested.end(), swept.begin(), swept.end());
