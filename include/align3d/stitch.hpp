@@ -77,12 +77,12 @@ struct StitchSettings {
   double prune_translation = 0.01;  // share of the object's diameter
   int multiview_iterations = 30;    // cap of the multi-view ICP (it stops when the poses settle)
   // The ICP cost of each edge's refinement and of the multi-view ICP, and their kernel. Unset
-  // kernel: Geman-McClure at half the reach, for both; a kernel with scale 0 takes its tuning constant × σ̂ there, σ̂ the
-  // point-to-plane noise of a pair (√2 × the noisiest scan's, cloud_stats.hpp). Point-to-point
-  // pairs two scans' samples, a bias of the sampling the multi-view ICP would spread over every
-  // scan (tests/stitch_test.cpp's ring from 0.5° off: still 0.3° and 2 mm off after 300
-  // iterations, where the other costs end within 0.1° and 0.2 mm): it refines the edges only, the
-  // multi-view ICP running point-to-plane.
+  // kernel: Geman-McClure at half the reach, for both; a kernel with scale 0 takes its tuning
+  // constant × σ̂ there, σ̂ the point-to-plane noise of a pair (√2 × the noisiest scan's,
+  // cloud_stats.hpp). Point-to-point pairs two scans' samples, a bias of the sampling the
+  // multi-view ICP would spread over every scan (tests/stitch_test.cpp's ring from 0.5° off: still
+  // 0.3° and 2 mm off after 300 iterations, where the other costs end within 0.1° and 0.2 mm): it
+  // refines the edges only, the multi-view ICP running point-to-plane.
   CostSettings cost;
   double voxel = 0;  // merged cloud; 0: kMergeVoxelSpacings × the median spacing
   // Where each scan's sensor was, in that scan's frame (normals are oriented towards it); empty:
