@@ -37,9 +37,8 @@ constexpr int kEdgeIterations = 30;
 
 using detail::Clock;
 using detail::DepthMap;
-using detail::FreeSpacePoints;
+using detail::facing_free_space;
 using detail::ms_since;
-using detail::pair_free_space;
 using detail::pair_reach;
 using detail::PairCandidate;
 using detail::PairSearchScan;
@@ -299,13 +298,9 @@ std::vector<std::tuple<double, std::size_t, std::size_t>> inconsistent_pairs(
   for (std::size_t a = 0; a < scans.size(); ++a)
     for (std::size_t b = a + 1; b < scans.size(); ++b) {
       if (!out[a].connected || !out[b].connected) continue;
-      FreeSpacePoints which;
-      which.facing_only = true;
-      which.stride =
-          std::max<std::size_t>(1, std::max(scans[a].cloud.size(), scans[b].cloud.size()) / 5000);
       const Eigen::Isometry3d T = out[b].transformation.inverse() * out[a].transformation;
-      const double share = pair_free_space(scans[a], scans[b], maps[a], maps[b], T,
-                                           2 * pair_reach(scans[a], scans[b]), which);
+      const double share = facing_free_space(scans[a], scans[b], maps[a], maps[b], T,
+                                             2 * pair_reach(scans[a], scans[b]), 5000);
       if (share > kMaxInconsistency) bad.emplace_back(share, a, b);
     }
   std::sort(bad.rbegin(), bad.rend());

@@ -91,10 +91,7 @@ bool fits(const Pair& p, const Eigen::Isometry3d& T) {
 }
 
 double free_space(const Pair& p, const Eigen::Isometry3d& T, std::size_t points, double margin) {
-  FreeSpacePoints facing;
-  facing.facing_only = true;
-  facing.stride = std::max<std::size_t>(1, std::max(p.si.cloud.size(), p.sj.cloud.size()) / points);
-  return pair_free_space(p.si, p.sj, p.mi, p.mj, T, margin, facing);
+  return facing_free_space(p.si, p.sj, p.mi, p.mj, T, margin, points);
 }
 
 // Every m-th point (and normal) of `cloud`, at most about `count`.
@@ -164,13 +161,6 @@ bool same_pose(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, const Eig
                double degrees, double distance) {
   return rad_to_deg(rotation_angle(a.linear().transpose() * b.linear())) < degrees &&
          (a * c - b * c).norm() < distance;
-}
-
-double overlap_share(const ScanData& si, const ScanData& sj, const PairSearchScan& a,
-                     const PairSearchScan& b, const Eigen::Isometry3d& T) {
-  return si.scale.extent <= sj.scale.extent
-             ? surface_fit(a.down, b.down, *b.down_tree, T, a.model.voxel, 1)
-             : surface_fit(b.down, a.down, *a.down_tree, T.inverse(), a.model.voxel, 1);
 }
 
 PairSearchScan prepare_pair_search(const ScanData& scan, double voxel) {

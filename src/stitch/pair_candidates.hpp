@@ -66,11 +66,6 @@ std::vector<PairCandidate> pair_candidates(std::size_t i, std::size_t j,
                                            const std::vector<PairSearchScan>& search,
                                            const std::vector<DepthMap>& maps, double min_overlap);
 
-// The share of the smaller scan (by robust extent) of i and j on the other's surface at T (scan
-// j ≈ T·scan i), on their thinned clouds (surface_fit).
-double overlap_share(const ScanData& si, const ScanData& sj, const PairSearchScan& a,
-                     const PairSearchScan& b, const Eigen::Isometry3d& T);
-
 // Whether two relative poses of scan `source` agree: rotations within `degrees`, and the centroid
 // c moved to within `distance`.
 bool same_pose(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, const Eigen::Vector3d& c,

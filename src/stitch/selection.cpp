@@ -62,11 +62,8 @@ std::vector<double> loop_support(const Context& x) {
 // a scan.
 double contradiction(const Context& x, std::size_t a, std::size_t b, const Eigen::Isometry3d& T) {
   const ScanData &sa = x.scans[a], &sb = x.scans[b];
-  FreeSpacePoints facing;
-  facing.facing_only = true;
-  facing.stride =
-      std::max<std::size_t>(1, std::max(sa.cloud.size(), sb.cloud.size()) / kJoinSamples);
-  return pair_free_space(sa, sb, x.maps[a], x.maps[b], T, 2 * pair_reach(sa, sb) + x.voxel, facing);
+  return facing_free_space(sa, sb, x.maps[a], x.maps[b], T, 2 * pair_reach(sa, sb) + x.voxel,
+                           kJoinSamples);
 }
 
 // The worst free-space share between a scan of group `ga` and one of group `gb` once M maps

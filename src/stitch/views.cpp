@@ -111,4 +111,13 @@ double pair_free_space(const ScanData& a, const ScanData& b, const DepthMap& map
                   free_space_share(b, T.inverse(), map_a, margin, which));
 }
 
+double facing_free_space(const ScanData& a, const ScanData& b, const DepthMap& map_a,
+                         const DepthMap& map_b, const Eigen::Isometry3d& T, double margin,
+                         std::size_t points) {
+  FreeSpacePoints facing;
+  facing.facing_only = true;
+  facing.stride = std::max<std::size_t>(1, std::max(a.cloud.size(), b.cloud.size()) / points);
+  return pair_free_space(a, b, map_a, map_b, T, margin, facing);
+}
+
 }  // namespace align3d::detail

@@ -68,4 +68,11 @@ double pair_free_space(const ScanData& a, const ScanData& b, const DepthMap& map
                        const DepthMap& map_b, const Eigen::Isometry3d& T, double margin,
                        FreeSpacePoints which = {});
 
+// pair_free_space over the points that face the other sensor, every m-th, m such that the larger
+// scan gives at most about `points` (the engine's steps test a pair this way, each with its own
+// budget and margin).
+double facing_free_space(const ScanData& a, const ScanData& b, const DepthMap& map_a,
+                         const DepthMap& map_b, const Eigen::Isometry3d& T, double margin,
+                         std::size_t points);
+
 }  // namespace align3d::detail
