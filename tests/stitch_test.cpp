@@ -216,7 +216,7 @@ TEST_P(MultiviewMethods, RecoverPosesFromPerturbedStart) {
   std::vector<std::pair<std::size_t, std::size_t>> links;
   for (std::size_t k = 0; k < 8; ++k) links.emplace_back(k, (k + 1) % 8);
   MultiviewSettings ms;
-  ms.max_distance = 4, ms.length = 150, ms.tolerance = 1e-5;
+  ms.max_distance = 4, ms.length = 150, ms.tolerance = 1e-5 * 150;  // stitch()'s
   ms.method = GetParam().method;
   ms.kernel = GetParam().kernel;
   const MultiviewResult r = multiview_icp(scans, links, start, ms);
@@ -225,6 +225,16 @@ TEST_P(MultiviewMethods, RecoverPosesFromPerturbedStart) {
     EXPECT_LT(after.rotation_deg, 0.1) << k;
     EXPECT_LT(after.translation, 0.2) << k;
   }
+  // Settled: it stopped before the cap, every scan's last move under the tolerance; after one
+  // iteration from 0.5° off (~1.3 units at the length, 0.5 at the centre), every scan but the first
+  // still moved.
+  EXPECT_LT(r.iterations, ms.max_iterations);
+  ASSERT_EQ(r.last_step.size(), 8u);
+  for (double step : r.last_step) EXPECT_LT(step, ms.tolerance);
+  ms.max_iterations = 1;
+  const MultiviewResult one = multiview_icp(scans, links, start, ms);
+  EXPECT_LT(one.last_step[0], 1e-9);  // held
+  for (std::size_t k = 1; k < 8; ++k) EXPECT_GT(one.last_step[k], 100 * ms.tolerance) << k;
 }
 
 INSTANTIATE_TEST_SUITE_P(

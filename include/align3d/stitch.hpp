@@ -28,10 +28,13 @@
 //      overlap, then all optimised at once with Ceres (a robust loss on every edge); an edge that
 //      disagrees with the optimised graph by more than prune_rotation_deg or prune_translation ×
 //      the object's diameter is pruned, the worst first, and the graph re-optimised without it.
-//   4. multi-view ICP (stitch/multiview_icp.hpp): every scan against its neighbours (the kept
-//      edges) in the optimised frame, all poses solved together, so the residual is spread over
-//      the loop instead of accumulating along it: pairs within the pairs' reach, then within a
-//      spacing or three noise levels.
+//   4. multi-view ICP (stitch/multiview_icp.hpp): every scan against its neighbours in the
+//      optimised frame (the kept edges, and any other two scans that overlap there by
+//      min_overlap: a near-symmetric part's pair whose candidates all came turned still holds its
+//      turn), all poses solved together, so the residual is spread over the loop instead of
+//      accumulating along it: pairs of a few thousand points a scan within the pairs' reach, then
+//      of every point within a spacing or three noise levels; each stage stops when the scans
+//      have settled, but for any that keeps sliding (multiview_icp.hpp).
 //   5. the merged cloud (stitch/merge.hpp): the scans in the first scan's frame, one point per
 //      voxel (size from the scans' point spacing, or `voxel`), normals oriented towards the sensor
 //      of the scan they came from and averaged, the scan index of each merged point.
@@ -75,7 +78,7 @@ struct StitchSettings {
   // Edges disagreeing with the optimised graph by more than this are pruned.
   double prune_rotation_deg = 1.0;
   double prune_translation = 0.01;  // share of the object's diameter
-  int multiview_iterations = 30;    // cap of the multi-view ICP (it stops when the poses settle)
+  int multiview_iterations = 30;    // cap of each multi-view ICP stage (stops when poses settle)
   // The ICP cost of each edge's refinement and of the multi-view ICP, and their kernel. Unset
   // kernel: Geman-McClure at half the reach, for both; a kernel with scale 0 takes its tuning
   // constant × σ̂ there, σ̂ the point-to-plane noise of a pair (√2 × the noisiest scan's,

@@ -202,7 +202,8 @@ Command add_stitch(CLI::App& app, Streams io) {
       ->check(CLI::Range(1e-9, 1.0))
       ->capture_default_str();
   sub->add_option("--multiview-iterations", s.multiview_iterations,
-                  "Cap of the multi-view ICP's iterations (it stops when the poses settle)")
+                  "Cap of the iterations of each of the multi-view ICP's two stages (each stops "
+                  "when the poses settle)")
       ->check(CLI::Range(0, 1000))
       ->capture_default_str();
   sub->add_option("--report", o->report, "Write the JSON report to FILE, or to stdout with -");

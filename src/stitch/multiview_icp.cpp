@@ -14,6 +14,14 @@ namespace {
 
 // Pairs whose normals differ by more than 45° are not the same surface.
 constexpr double kMinNormalCosine = 0.7071;
+// A scan that has moved by the tolerance in each of the last kRestlessIterations iterations, and
+// by more than half as much in the last as kSlowdownSpan iterations before, does not converge: it
+// slides, and does not hold the others back. Measured on the bracket's rings (2026-11-28): a view
+// turned onto a look-alike face slid by 1–100 tolerances an iteration, its steps shrinking by
+// 0.5–0.9 over 5 iterations, while the right scans settled within 8; a near-symmetric part's
+// group of right scans creeping about its axis shrank its steps to 0.15–0.26 over 5.
+constexpr int kRestlessIterations = 10, kSlowdownSpan = 5;
+constexpr double kSlowdown = 0.5;
 
 // The sums of one directed link a → b: the blocks of the normal equations it touches.
 struct LinkSums {
@@ -140,6 +148,17 @@ Eigen::Vector3d common_centre(const std::vector<MultiviewScan>& scans,
   return count > 0 ? Eigen::Vector3d(sum / count) : Eigen::Vector3d::Zero();
 }
 
+// Whether a scan that moved by `steps` in the iterations so far holds the others back no more:
+// its last step is below the tolerance, or it slides (kRestlessIterations).
+bool settled(const std::vector<double>& steps, double tolerance) {
+  const std::size_t m = steps.size();
+  if (steps.back() < tolerance) return true;
+  if (m < static_cast<std::size_t>(kRestlessIterations)) return false;
+  const bool restless = std::all_of(steps.end() - kRestlessIterations, steps.end(),
+                                    [&](double x) { return x >= tolerance; });
+  return restless && steps[m - 1] >= kSlowdown * steps[m - 1 - kSlowdownSpan];
+}
+
 }  // namespace
 
 MultiviewResult multiview_icp(const std::vector<MultiviewScan>& scans,
@@ -148,23 +167,44 @@ MultiviewResult multiview_icp(const std::vector<MultiviewScan>& scans,
                               const MultiviewSettings& settings) {
   const std::size_t n = scans.size();
   MultiviewResult out;
+  out.last_step.assign(n, 0);
   const Eigen::Vector3d centre = common_centre(scans, poses);
   std::vector<bool> linked(n, false);
   for (const auto& [a, b] : links) linked[a] = linked[b] = true;
+  // How far a pose moved, in the tolerance's units (its turn times the length, plus how far it
+  // moved the centre).
+  auto moved = [&](const Eigen::Isometry3d& from, const Eigen::Isometry3d& to) {
+    const Eigen::Isometry3d d = to * from.inverse();
+    return Eigen::AngleAxisd(d.linear()).angle() * settings.length + (d * centre - centre).norm();
+  };
+  // Each directed link's sums and the poses they were taken at: a link whose two scans have moved
+  // by less than the tolerance since keeps them (its pairs and terms would barely differ), so that
+  // once most scans have settled, an iteration pairs only the links of those still moving.
+  struct Cached {
+    LinkSums sums;
+    Eigen::Isometry3d pa, pb;
+    bool valid = false;
+  };
+  std::vector<Cached> cache(2 * links.size());
+  std::vector<std::vector<double>> steps(n);  // of each scan, every iteration
   for (int it = 0; it < settings.max_iterations; ++it) {
     const Pass pass{scans, poses, centre, settings, false};
     Eigen::MatrixXd H = Eigen::MatrixXd::Zero(6 * n, 6 * n);
     Eigen::VectorXd g = Eigen::VectorXd::Zero(6 * n);
-    for (const auto& [x, y] : links)
-      for (const auto& [a, b] : {std::pair{x, y}, std::pair{y, x}}) {
-        const LinkSums s = pass.link(a, b);
-        H.block<6, 6>(6 * a, 6 * a) += s.aa;
-        H.block<6, 6>(6 * a, 6 * b) += s.ab;
-        H.block<6, 6>(6 * b, 6 * a) += s.ab.transpose();
-        H.block<6, 6>(6 * b, 6 * b) += s.bb;
-        g.segment<6>(6 * a) += s.ga;
-        g.segment<6>(6 * b) += s.gb;
-      }
+    for (std::size_t l = 0; l < 2 * links.size(); ++l) {
+      const auto [a, b] = l % 2 ? std::pair{links[l / 2].second, links[l / 2].first} : links[l / 2];
+      Cached& c = cache[l];
+      if (!c.valid || moved(c.pa, poses[a]) >= settings.tolerance ||
+          moved(c.pb, poses[b]) >= settings.tolerance)
+        c = {pass.link(a, b), poses[a], poses[b], true};
+      const LinkSums& s = c.sums;
+      H.block<6, 6>(6 * a, 6 * a) += s.aa;
+      H.block<6, 6>(6 * a, 6 * b) += s.ab;
+      H.block<6, 6>(6 * b, 6 * a) += s.ab.transpose();
+      H.block<6, 6>(6 * b, 6 * b) += s.bb;
+      g.segment<6>(6 * a) += s.ga;
+      g.segment<6>(6 * b) += s.gb;
+    }
     // Node 0 and scans in no link stay: their rows and columns become the identity, with no
     // gradient. A tiny ridge keeps a direction no pair constrains (a plane's slide) at rest.
     const double ridge = 1e-12 * std::max(H.trace(), 1e-300);
@@ -177,14 +217,16 @@ MultiviewResult multiview_icp(const std::vector<MultiviewScan>& scans,
       H.block<6, 6>(6 * k, 6 * k).setIdentity(), g.segment<6>(6 * k).setZero();
     }
     const Eigen::VectorXd xi = H.ldlt().solve(-g);
-    double largest = 0;
     for (std::size_t k = 0; k < n; ++k) {
-      const Vector6d step = xi.segment<6>(6 * k);
-      poses[k] = update_about(step, centre) * poses[k];
-      largest = std::max(largest, step.head<3>().norm() * settings.length + step.tail<3>().norm());
+      const Eigen::Isometry3d next = update_about(xi.segment<6>(6 * k), centre) * poses[k];
+      out.last_step[k] = moved(poses[k], next);
+      poses[k] = next;
     }
     out.iterations = it + 1;
-    if (largest < settings.tolerance) break;
+    for (std::size_t k = 0; k < n; ++k) steps[k].push_back(out.last_step[k]);
+    if (std::all_of(steps.begin(), steps.end(),
+                    [&](const auto& h) { return settled(h, settings.tolerance); }))
+      break;
   }
   out.residuals.assign(n, {});
   const Pass last{scans, poses, centre, settings, true};

@@ -8,7 +8,11 @@
 // one of the ICP layer's (icp/factors.hpp; point-to-plane by default, with the other's normal),
 // written for both poses moving, weighted by a robust kernel of its point-to-plane distance
 // (Geman-McClure of scale max_distance / 2 by default); the Gauss-Newton step of all poses (left
-// updates about the scans' common centroid; node 0 held fixed) is one dense 6N × 6N solve.
+// updates about the scans' common centroid; node 0 held fixed) is one dense 6N × 6N solve. A
+// link's sums are kept from the iteration before while neither of its scans has moved by the
+// tolerance since they were taken: once most scans have settled, only the links of those still
+// moving are paired again. It stops when every scan has settled (moved by less than the tolerance)
+// but those that slid on by ten tolerances in each of the last ten iterations.
 // Written here rather than with Ceres:
 // the pairs are found again at every iteration, and the normal equations are LinearSystem6's sums
 // (icp/factors.hpp) laid out in blocks, a few hundred unknowns at most.
@@ -54,6 +58,10 @@ struct MultiviewPairs {
 struct MultiviewResult {
   std::vector<Eigen::Isometry3d> poses;
   int iterations = 0;
+  // How far each pose moved in the last iteration (the tolerance's units): at or above the
+  // tolerance when that scan had not settled (the iterations ran out, or it kept sliding while
+  // the others settled: multiview_icp.cpp's kRestlessIterations).
+  std::vector<double> last_step;
   // Per scan, its sampled points' pairs in the final poses (point-to-plane distances).
   std::vector<MultiviewPairs> residuals;
 };
