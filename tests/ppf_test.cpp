@@ -121,6 +121,30 @@ TEST(Ppf, SameResultWithOneAndTwoThreads) {
                    ppf_match(one, p.scan, ppf_settings(2)));
 }
 
+// The hash table's layout (ppf.hpp): keys strictly increasing, each key's entries in reference
+// order (the model's pairs are built by reference point and sorted stably by key: an unstable sort
+// scrambles them), the offsets bounding every entry.
+TEST(Ppf, ModelTableIsSortedByKeyThenReference) {
+  const synth::Scene scene = object_scene("bracket");
+  const PpfModel m =
+      build_ppf_model(scene.model, global_voxel(scene.model, scene.model, ppf_settings()), 2);
+  ASSERT_GT(m.keys.size(), 1000u);
+  ASSERT_EQ(m.offsets.size(), m.keys.size() + 1);
+  EXPECT_EQ(m.offsets.front(), 0u);
+  EXPECT_EQ(m.offsets.back(), m.refs.size());
+  EXPECT_EQ(m.alphas.size(), m.refs.size());
+  std::size_t disordered = 0, several = 0;
+  for (std::size_t k = 0; k < m.keys.size(); ++k) {
+    if (k > 0) EXPECT_LT(m.keys[k - 1], m.keys[k]) << k;
+    ASSERT_LT(m.offsets[k], m.offsets[k + 1]) << k;
+    several += m.offsets[k + 1] - m.offsets[k] > 1;
+    for (std::uint32_t e = m.offsets[k] + 1; e < m.offsets[k + 1]; ++e)
+      disordered += m.refs[e - 1] > m.refs[e];
+  }
+  EXPECT_GT(several, 100u);  // the order within a key is tested
+  EXPECT_EQ(disordered, 0u);
+}
+
 TEST(Ppf, SaveLoadRoundTripGivesIdenticalMatch) {
   test::TempDir dir("ppf_roundtrip");
   const synth::Scene scene = object_scene("bumpy-sphere");

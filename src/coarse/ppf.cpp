@@ -23,6 +23,7 @@
 #include "align3d/kdtree.hpp"
 #include "align3d/normals.hpp"
 #include "align3d/se3.hpp"
+#include "detail/bucket_scatter.hpp"
 #include "detail/fast_acos.hpp"
 #include "detail/parallel.hpp"
 
@@ -34,6 +35,8 @@ constexpr std::size_t kMaxModelPoints = 1500;
 constexpr int kNormalNeighbours = 15;
 // A bucket with more pairs than this × the mean bucket size is a stop feature (header).
 constexpr double kMaxBucketFactor = 20;
+// The model's radix sort (build_ppf_model): bits of the key a pass.
+constexpr int kKeyDigitBits = 11;
 constexpr std::size_t kSceneReferenceStep = 5;  // every 5th scene point is a reference (Drost: 1/5)
 constexpr std::size_t kPeaksPerReference = 3;
 constexpr double kClusterRotationDeg = 12;
@@ -595,8 +598,20 @@ PpfModel build_ppf_model(const PointCloud& model, double voxel, int threads, boo
     items.insert(items.end(), row.begin(), row.end());
     std::vector<Item>().swap(row);
   }
-  std::stable_sort(items.begin(), items.end(),
-                   [](const Item& a, const Item& b) { return a.key < b.key; });
+  // Stably by key: radix passes of kKeyDigitBits (detail/bucket_scatter.hpp), the order
+  // std::stable_sort gave. Measured (2026-11-28, a bracket scan's model, 1.5 M pairs, the same
+  // model bit for bit): the whole build 245 → 187 ms on one thread, 192 → 128 ms on two.
+  std::uint64_t max_key = 0;
+  for (const Item& item : items) max_key = std::max(max_key, item.key);
+  std::vector<Item> sorted(items.size());
+  for (int shift = 0; shift == 0 || (shift < 64 && (max_key >> shift) != 0);
+       shift += kKeyDigitBits) {
+    detail::scatter_by_bucket(
+        items.data(), sorted.data(), items.size(), std::size_t{1} << kKeyDigitBits, threads,
+        [&](const Item& item) { return (item.key >> shift) & ((1u << kKeyDigitBits) - 1); });
+    items.swap(sorted);
+  }
+  std::vector<Item>().swap(sorted);
 
   std::size_t unique_keys = 0;
   for (std::size_t i = 0; i < items.size(); ++i)
