@@ -162,7 +162,10 @@ StitchResult made_up_result() {
   }
   r.voxel = 0.5, r.diameter = 20, r.multiview_iterations = 7;
   r.warnings = {{"unconnected_scan", "c.ply overlaps no other scan"},
-                {"pruned_edge", "edge 1-2 disagrees with the graph"}};
+                {"pruned_edge", "edge 1-2 disagrees with the graph"},
+                {"single_edge_scan", "scan 1 is held by one edge only"}};
+  r.scans[1].warnings = {"single_edge_scan"};
+  r.scans[2].warnings = {"unconnected_scan"};
   r.timings = {1, 2, 3, 4, 5, 15};
   return r;
 }
@@ -256,6 +259,9 @@ TEST(StitchFiles, ThePageIsSelfContainedAndListsPosesEdgesAndWarnings) {
   for (const char* text : {"scans/a.ply", "scans/b.pcd", "scan 2", "unconnected_scan",
                            "pruned_edge", "pruned", "high_rms", "28.648", "60.0"})
     EXPECT_TRUE(mentions(page, text)) << text;
+  // Each pose's row ends with the codes of the warnings that name its scan.
+  EXPECT_TRUE(mentions(page, "<td class=warn>single_edge_scan</td></tr>"));
+  EXPECT_TRUE(mentions(page, "<td class=warn>unconnected_scan</td></tr>"));
   // A row per pose and per edge, plus their headers and the timings'.
   std::size_t rows = 0;
   for (std::size_t at = page.find("<tr>"); at != std::string::npos; at = page.find("<tr>", at + 1))

@@ -61,19 +61,22 @@ std::string summary_html(const StitchResult& r, const StitchPageInfo& info) {
 }
 
 std::string poses_html(const StitchResult& r, const StitchPageInfo& info) {
-  std::string t =
-      "<h2>Poses</h2>\n<table>\n" +
-      header({"#", "file", "connected", "points", "kept edges", "rotation (\u00b0)",
-              "translation (x, y, z)", "residual pairs", "residual RMS", "residual p95"});
+  std::string t = "<h2>Poses</h2>\n<table>\n" +
+                  header({"#", "file", "connected", "points", "kept edges", "rotation (\u00b0)",
+                          "translation (x, y, z)", "residual pairs", "residual RMS", "residual p95",
+                          "warnings"});
   for (std::size_t k = 0; k < r.scans.size(); ++k) {
     const StitchScan& s = r.scans[k];
     const Eigen::Vector3d p = s.transformation.translation();
+    std::string warnings;  // the codes that name this scan: with any, its pose may be wrong
+    for (const std::string& code : s.warnings) warnings += (warnings.empty() ? "" : ", ") + code;
     t += "<tr>" + cell(std::to_string(k), true) + cell(file_of(info, k)) + "<td" +
          (s.connected ? ">yes" : " class=warn>no") + "</td>" + cell(format_count(s.points), true) +
          cell(std::to_string(s.edges), true) +
          cell(num(rad_to_deg(rotation_angle(s.transformation.linear())), "%.3f"), true) +
          cell(num(p.x()) + ", " + num(p.y()) + ", " + num(p.z()), true) +
          cell(format_count(s.pairs), true) + cell(num(s.rms), true) + cell(num(s.p95), true) +
+         (warnings.empty() ? "<td></td>" : "<td class=warn>" + html_escape(warnings) + "</td>") +
          "</tr>\n";
   }
   return t + "</table>\n";
