@@ -152,12 +152,7 @@ std::vector<StitchEdge> make_edges(const std::vector<ScanData>& scans,
     if (!e.status.empty()) continue;
     const ScanData &a = scans[e.source], &b = scans[e.target];
     const double reach = pair_reach(a, b);
-    PointCloud sample;
-    const std::size_t step = std::max<std::size_t>(1, a.cloud.size() / kEdgeSamples);
-    for (std::size_t q = 0; q < a.cloud.size(); q += step) {
-      sample.positions.push_back(a.cloud.positions[q]);
-      sample.normals.push_back(a.cloud.normals[q]);
-    }
+    const PointCloud sample = detail::every_mth(a.cloud, kEdgeSamples);
     e.transformation =
         refine_edge(sample, b, e.transformation, reach, std::max(a.scale.noise, b.scale.noise), s);
     const PairInformation info =
@@ -227,14 +222,7 @@ std::vector<std::pair<std::size_t, std::size_t>> overlapping_links(
     const std::vector<StitchScan>& out, double min_overlap) {
   const std::size_t n = scans.size();
   std::vector<PointCloud> samples(n);
-  for (std::size_t k = 0; k < n; ++k) {
-    const PointCloud& c = scans[k].cloud;
-    const std::size_t m = std::max<std::size_t>(1, c.size() / kLinkSamples);
-    for (std::size_t i = 0; i < c.size(); i += m) {
-      samples[k].positions.push_back(c.positions[i]);
-      samples[k].normals.push_back(c.normals[i]);
-    }
-  }
+  for (std::size_t k = 0; k < n; ++k) samples[k] = detail::every_mth(scans[k].cloud, kLinkSamples);
   std::vector<std::pair<std::size_t, std::size_t>> links;
   for (std::size_t a = 0; a < n; ++a)
     for (std::size_t b = a + 1; b < n; ++b) {

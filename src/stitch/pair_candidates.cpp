@@ -94,17 +94,6 @@ double free_space(const Pair& p, const Eigen::Isometry3d& T, std::size_t points,
   return facing_free_space(p.si, p.sj, p.mi, p.mj, T, margin, points);
 }
 
-// Every m-th point (and normal) of `cloud`, at most about `count`.
-PointCloud every_mth(const PointCloud& cloud, std::size_t count) {
-  PointCloud out;
-  const std::size_t step = std::max<std::size_t>(1, (cloud.size() + count - 1) / count);
-  for (std::size_t q = 0; q < cloud.size(); q += step) {
-    out.positions.push_back(cloud.positions[q]);
-    out.normals.push_back(cloud.normals[q]);
-  }
-  return out;
-}
-
 // Keeps the first of each group of candidates within `degrees` and `distance` of a kept one.
 void keep_distinct(std::vector<PairCandidate>& list, const Eigen::Vector3d& c, double degrees,
                    double distance) {

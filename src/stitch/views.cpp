@@ -42,6 +42,17 @@ double largest_extent(const std::vector<ScanData>& scans) {
   return e;
 }
 
+PointCloud every_mth(const PointCloud& cloud, std::size_t count) {
+  PointCloud out;
+  const std::size_t m =
+      std::max<std::size_t>(1, (cloud.size() + count - 1) / std::max<std::size_t>(count, 1));
+  for (std::size_t q = 0; q < cloud.size(); q += m) {
+    out.positions.push_back(cloud.positions[q]);
+    out.normals.push_back(cloud.normals[q]);
+  }
+  return out;
+}
+
 double pair_reach(const ScanData& a, const ScanData& b) {
   return 3 * std::max(a.scale.spacing, b.scale.spacing) +
          3 * std::hypot(a.scale.noise, b.scale.noise);
