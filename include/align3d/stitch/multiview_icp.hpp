@@ -12,7 +12,8 @@
 // link's sums are kept from the iteration before while neither of its scans has moved by the
 // tolerance since they were taken: once most scans have settled, only the links of those still
 // moving are paired again. It stops when every scan has settled (moved by less than the tolerance)
-// but those that slid on by ten tolerances in each of the last ten iterations.
+// but those that slide: moved by the tolerance in each of the last ten iterations, the last step
+// at least half the one five before (a right scan's creep shrinks faster).
 // Written here rather than with Ceres:
 // the pairs are found again at every iteration, and the normal equations are LinearSystem6's sums
 // (icp/factors.hpp) laid out in blocks, a few hundred unknowns at most.
