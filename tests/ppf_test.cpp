@@ -135,7 +135,9 @@ TEST(Ppf, ModelTableIsSortedByKeyThenReference) {
   EXPECT_EQ(m.alphas.size(), m.refs.size());
   std::size_t disordered = 0, several = 0;
   for (std::size_t k = 0; k < m.keys.size(); ++k) {
-    if (k > 0) EXPECT_LT(m.keys[k - 1], m.keys[k]) << k;
+    if (k > 0) {
+      EXPECT_LT(m.keys[k - 1], m.keys[k]) << k;
+    }
     ASSERT_LT(m.offsets[k], m.offsets[k + 1]) << k;
     several += m.offsets[k + 1] - m.offsets[k] > 1;
     for (std::uint32_t e = m.offsets[k] + 1; e < m.offsets[k + 1]; ++e)
