@@ -246,14 +246,14 @@ MultiviewResult refine_views(const std::vector<ScanData>& scans,
                              double diameter, double noise) {
   std::vector<Eigen::Isometry3d> poses(scans.size());
   for (std::size_t k = 0; k < scans.size(); ++k) poses[k] = out[k].transformation;
-  // Every m-th point of each connected scan, at most `count`.
+  // Every m-th point of each connected scan, at most `count` (as detail::every_mth).
   auto sampled = [&](std::size_t count) {
     std::vector<MultiviewScan> views(scans.size());
     for (std::size_t k = 0; k < scans.size(); ++k) {
       views[k].cloud = &scans[k].cloud;
       views[k].tree = scans[k].tree.get();
       if (!out[k].connected) continue;
-      const std::size_t m = (scans[k].cloud.size() + count - 1) / count;
+      const std::size_t m = detail::every_mth_step(scans[k].cloud.size(), count);
       for (std::size_t i = 0; i < scans[k].cloud.size(); i += m)
         views[k].sample.push_back(static_cast<std::uint32_t>(i));
     }

@@ -5,7 +5,9 @@
 #include <cmath>
 #include <cstdio>
 #include <stdexcept>
+#include <string>
 #include <utility>
+#include <vector>
 
 #include "align3d/io/atomic_file.hpp"
 #include "align3d/io/ply_attributes.hpp"
@@ -38,6 +40,13 @@ std::string cell(const std::string& text, bool number = false) {
   return (number ? "<td class=n>" : "<td>") + html_escape(text) + "</td>";
 }
 
+// "a, b, c".
+std::string comma_list(const std::vector<std::string>& items) {
+  std::string out;
+  for (const std::string& s : items) out += (out.empty() ? "" : ", ") + s;
+  return out;
+}
+
 std::string header(std::initializer_list<const char*> names) {
   std::string out = "<tr>";
   for (const char* n : names) out += "<th>" + html_escape(n) + "</th>";
@@ -68,8 +77,8 @@ std::string poses_html(const StitchResult& r, const StitchPageInfo& info) {
   for (std::size_t k = 0; k < r.scans.size(); ++k) {
     const StitchScan& s = r.scans[k];
     const Eigen::Vector3d p = s.transformation.translation();
-    std::string warnings;  // the codes that name this scan: with any, its pose may be wrong
-    for (const std::string& code : s.warnings) warnings += (warnings.empty() ? "" : ", ") + code;
+    // The codes of the warnings that name this scan: with any, its pose may be wrong.
+    const std::string warnings = comma_list(s.warnings);
     t += "<tr>" + cell(std::to_string(k), true) + cell(file_of(info, k)) + "<td" +
          (s.connected ? ">yes" : " class=warn>no") + "</td>" + cell(format_count(s.points), true) +
          cell(std::to_string(s.edges), true) +
@@ -88,8 +97,9 @@ std::string edges_html(const StitchResult& r) {
                   header({"source", "target", "overlap", "RMS", "status",
                           "rotation residual (\u00b0)", "translation residual", "warnings"});
   for (const StitchEdge& e : r.edges) {
-    std::string warnings;
-    for (const Warning& w : e.warnings) warnings += (warnings.empty() ? "" : ", ") + w.code;
+    std::vector<std::string> codes;
+    for (const Warning& w : e.warnings) codes.push_back(w.code);
+    const std::string warnings = comma_list(codes);
     t += "<tr>" + cell(std::to_string(e.source), true) + cell(std::to_string(e.target), true) +
          cell(rounded_percent(e.overlap), true) + cell(num(e.rms), true) + "<td" +
          (e.kept ? ">kept" : " class=warn>" + html_escape(e.status)) + "</td>" +

@@ -42,10 +42,14 @@ double largest_extent(const std::vector<ScanData>& scans) {
   return e;
 }
 
+std::size_t every_mth_step(std::size_t size, std::size_t count) {
+  count = std::max<std::size_t>(count, 1);
+  return std::max<std::size_t>(1, (size + count - 1) / count);
+}
+
 PointCloud every_mth(const PointCloud& cloud, std::size_t count) {
   PointCloud out;
-  const std::size_t m =
-      std::max<std::size_t>(1, (cloud.size() + count - 1) / std::max<std::size_t>(count, 1));
+  const std::size_t m = every_mth_step(cloud.size(), count);
   for (std::size_t q = 0; q < cloud.size(); q += m) {
     out.positions.push_back(cloud.positions[q]);
     out.normals.push_back(cloud.normals[q]);

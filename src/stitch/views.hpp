@@ -34,7 +34,9 @@ std::vector<ScanData> prepare_scans(const std::vector<PointCloud>& scans,
 // The object's size: the largest robust extent of a scan (cloud_stats.hpp).
 double largest_extent(const std::vector<ScanData>& scans);
 
-// Every m-th point (and normal) of `cloud`, m the least that leaves at most `count` (≥ 1).
+// The least m ≥ 1 such that every m-th of `size` points are at most `count` (≥ 1).
+std::size_t every_mth_step(std::size_t size, std::size_t count);
+// Every m-th point (and normal) of `cloud`, m = every_mth_step(cloud.size(), count).
 PointCloud every_mth(const PointCloud& cloud, std::size_t count);
 
 // A pair's reach: a few spacings and noise levels of the coarser of the two.
