@@ -1,9 +1,13 @@
 #include "stitch/selection.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
+#include <memory>
 #include <numeric>
+#include <optional>
 
+#include "align3d/icp/icp.hpp"
 #include "align3d/se3.hpp"
 
 namespace align3d::detail {
@@ -14,6 +18,10 @@ constexpr double kAgreeDeg = 2, kAgreeShare = 0.02;
 constexpr double kMaxJoinFreeSpace = 0.02;
 constexpr double kAmbiguousShare = 0.5, kMaxAmbiguousFreeSpace = 0.01;
 constexpr std::size_t kJoinSamples = 4000;  // points a scan tests a join with, at most
+// settle(): a scan moves to another placement when that covers at least kCoverGain more of its
+// sample; find_ambiguous(): a placement within kCoverGain of the chosen one's cover is as good.
+constexpr double kCoverGain = 0.05;
+constexpr int kSettleRounds = 3, kSettleIterations = 10;
 
 // The candidates of every ordered pair of scans, as indices.
 using PairIndex = std::vector<std::vector<std::vector<std::size_t>>>;
@@ -85,7 +93,6 @@ double join_contradiction(const Context& x, const Selection& s, std::size_t ga, 
 struct Forest {
   Selection s;
   std::vector<std::size_t> joins;
-  double score = 0;  // Σ score of the candidates that agree with the poses
 };
 
 Forest kruskal(const Context& x, const std::vector<std::size_t>& order,
@@ -116,16 +123,16 @@ Forest kruskal(const Context& x, const std::vector<std::size_t>& order,
   return f;
 }
 
-void mark_agreeing(const Context& x, Forest& f) {
-  Selection& s = f.s;
+// Marks the candidates that agree with the poses and sums their scores into s.score.
+void mark_agreeing(const Context& x, Selection& s) {
   s.agrees.resize(x.candidates.size());
-  f.score = 0;
+  s.score = 0;
   for (std::size_t e = 0; e < x.candidates.size(); ++e) {
     const PairCandidate& c = x.candidates[e];
     s.agrees[e] =
         s.group[c.source] == s.group[c.target] &&
         x.same(c.source, s.poses[c.target].inverse() * s.poses[c.source], c.T_target_source);
-    if (s.agrees[e]) f.score += c.score;
+    if (s.agrees[e]) s.score += c.score;
   }
 }
 
@@ -177,21 +184,130 @@ double placement_contradiction(const Context& x, const Selection& s, std::size_t
   return worst;
 }
 
+// The thinned points (PairSearchScan::down) of the other scans of k's group, in the group's frame,
+// with a tree: what a placement of k is refined against and tested on.
+struct Surroundings {
+  PointCloud cloud;
+  std::unique_ptr<KdTree> tree;
+};
+Surroundings surroundings(const Context& x, const Selection& s, std::size_t k) {
+  Surroundings out;
+  for (std::size_t m = 0; m < x.scans.size(); ++m) {
+    if (m == k || s.group[m] != s.group[k]) continue;
+    const PointCloud moved = transformed(x.search[m].down, s.poses[m]);
+    out.cloud.positions.insert(out.cloud.positions.end(), moved.positions.begin(),
+                               moved.positions.end());
+    out.cloud.normals.insert(out.cloud.normals.end(), moved.normals.begin(), moved.normals.end());
+  }
+  out.tree = std::make_unique<KdTree>(out.cloud.positions, 1);
+  return out;
+}
+
+// The share of scan k's sample (PairSearchScan::sample), placed at X, that lies on the surface of
+// another scan of its group: its nearest point within the pair's reach, the point-to-plane
+// distance within 3 noise levels of the two. Measured on the generated sets with every other scan
+// at its true pose: each scan placed wrongly by the pairs (turned onto a look-alike face) covered
+// 0.33–0.87 there and 0.95–0.99 at the truth.
+double coverage(const Context& x, const Selection& s, std::size_t k, const Eigen::Isometry3d& X) {
+  const PointCloud& sample = x.search[k].sample;
+  std::vector<char> covered(sample.size(), 0);
+  for (std::size_t m = 0; m < x.scans.size(); ++m) {
+    if (m == k || s.group[m] != s.group[k]) continue;
+    const ScanData& other = x.scans[m];
+    const Eigen::Isometry3d T = s.poses[m].inverse() * X;
+    const double reach = pair_reach(x.scans[k], other);
+    const double tolerance = 3 * std::hypot(x.scans[k].scale.noise, other.scale.noise);
+    for (std::size_t i = 0; i < sample.size(); ++i) {
+      if (covered[i]) continue;
+      const Eigen::Vector3d y = T * sample.positions[i];
+      Neighbor nb;
+      if (!other.tree->nearest(y, nb, reach * reach)) continue;
+      covered[i] =
+          std::abs(other.cloud.normals[nb.index].dot(y - other.cloud.positions[nb.index])) <=
+          tolerance;
+    }
+  }
+  const auto count = static_cast<double>(std::count(covered.begin(), covered.end(), 1));
+  return sample.empty() ? 0.0 : count / static_cast<double>(sample.size());
+}
+
+// Placement X of scan k refined on its surroundings, and its coverage() there. A placement
+// composed of pair candidates can be a few tenths of a degree off (each fitted one neighbour on a
+// thinned sample); refined on all of them it settles. A near-symmetric part's view turned onto a
+// look-alike face fits the scan it was found with, but its asymmetric details lie on no surface:
+// measured on the bracket's generated 8-view ring, its side view covered 0.80 where it was first
+// put, 0.99 at the truth.
+struct Placement {
+  Eigen::Isometry3d pose;
+  double cover = 0;
+};
+Placement settle_placement(const Context& x, const Selection& s, const Surroundings& around,
+                           std::size_t k, const Eigen::Isometry3d& X) {
+  const double voxel = x.search[k].model.voxel;
+  IcpSettings is;
+  is.termination.max_iterations = kSettleIterations;
+  is.threads = 1;
+  is.kernel = RobustKernel::kGemanMcClure;
+  is.kernel_scale = voxel / 2;
+  Placement p{X};
+  for (const double reach : {2 * voxel, voxel}) {
+    is.rejection = RejectionRule::max_distance(reach);
+    p.pose = icp(x.search[k].sample, around.cloud, *around.tree, p.pose, is).T_target_source;
+  }
+  p.cover = coverage(x, s, k, p.pose);
+  return p;
+}
+
+// Moves each scan (but a group's first) to the placement its candidates give it that, refined,
+// covers the most of it (settle_placement()), when that is at least kCoverGain more than where it
+// lies, refined the same way, and contradicts no scan of its group; in rounds, as one scan's move
+// changes the others' surroundings. The candidates' scores measure each pair alone: a
+// near-symmetric view turned onto a look-alike face can fit one neighbour better than the truth
+// fits two.
+void settle(const Context& x, Selection& s) {
+  for (int round = 0; round < kSettleRounds; ++round) {
+    bool moved = false;
+    for (std::size_t k = 0; k < x.scans.size(); ++k) {
+      if (s.group[k] == k) continue;
+      const std::vector<Eigen::Isometry3d> others = placements(x, s, k);
+      if (others.empty()) continue;
+      const Surroundings around = surroundings(x, s, k);
+      const Placement here = settle_placement(x, s, around, k, s.poses[k]);
+      Placement best = here;
+      for (const Eigen::Isometry3d& X : others) {
+        const Placement p = settle_placement(x, s, around, k, X);
+        if (p.cover > best.cover && placement_contradiction(x, s, k, p.pose) <= kMaxJoinFreeSpace)
+          best = p;
+      }
+      if (best.cover >= here.cover + kCoverGain) s.poses[k] = best.pose, moved = true;
+    }
+    if (!moved) return;
+  }
+}
+
 // Scans of the first scan's group with another placement that candidates from two or more other
 // scans agree with (a loop closes there too), nearly as strongly (kAmbiguousShare of the chosen
-// placement's agreement), and that contradicts no scan: the data do not decide where they lie.
-// The box-like bracket's view that sees two plain side faces only fits its neighbours on either
-// side turned by a half as well as at the truth.
+// placement's agreement), that, refined, covers nearly as much of the scan (within kCoverGain,
+// settle_placement()) and contradicts no scan: the data do not decide where they lie. The
+// box-like bracket's view that sees two plain side faces only fits its neighbours on either side
+// turned by a half as well as at the truth.
 void find_ambiguous(const Context& x, Selection& s) {
   for (std::size_t k = 1; k < x.scans.size(); ++k) {
     if (s.group[k] != 0) continue;
     const Agreement chosen = agreement(x, s, k, s.poses[k]);
+    std::optional<Surroundings> around;
+    double cover = 0;
     for (const Eigen::Isometry3d& X : placements(x, s, k)) {
       const Agreement other = agreement(x, s, k, X);
       if (other.scans < std::min<std::size_t>(2, chosen.scans) ||
           other.score < kAmbiguousShare * chosen.score ||
           placement_contradiction(x, s, k, X) > kMaxAmbiguousFreeSpace)
         continue;
+      if (!around) {
+        around = surroundings(x, s, k);
+        cover = settle_placement(x, s, *around, k, s.poses[k]).cover;
+      }
+      if (settle_placement(x, s, *around, k, X).cover < cover - kCoverGain) continue;
       s.ambiguous.push_back(k);
       break;
     }
@@ -237,11 +353,12 @@ Selection select_poses(const std::vector<PairCandidate>& candidates,
   }
   std::size_t best = 0;
   for (std::size_t k = 0; k < forests.size(); ++k) {
-    mark_agreeing(x, forests[k]);
-    if (forests[k].score > forests[best].score) best = k;
+    mark_agreeing(x, forests[k].s);
+    if (forests[k].s.score > forests[best].s.score) best = k;
   }
   Selection out = std::move(forests[best].s);
-  out.score = forests[best].score;
+  settle(x, out);
+  mark_agreeing(x, out);
   find_ambiguous(x, out);
   return out;
 }

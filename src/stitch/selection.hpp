@@ -11,6 +11,10 @@
 //     stitch/views.hpp, facing points, more than kMaxJoinFreeSpace): two pairs' candidates may
 //     each be self-consistent and still put two scans through each other (a box's side views
 //     turned by a half, each fitting its neighbour), and only scans no candidate joins show it.
+// Then each scan moves to another placement its candidates give it when, refined on the other
+// scans of its group, that covers clearly more of it (its points on their surfaces at the noise)
+// and contradicts none of them: a near-symmetric view turned onto a look-alike face can fit one
+// neighbour better than the truth fits two, but its asymmetric details lie on no surface.
 // The first scan's group gives the frame; scans no accepted join reaches stay apart.
 #pragma once
 
@@ -31,7 +35,8 @@ struct Selection {
   std::vector<bool> agrees;
   // Scans an alternative choice places elsewhere (by more than kAgreeDeg or kAgreeShare of the
   // diameter, relative to the first scan) while explaining nearly as many candidates (at least
-  // kAmbiguousShare of the chosen score): the data do not decide their poses. Ascending.
+  // kAmbiguousShare of the chosen score) and covering nearly as much of the scan (within
+  // kCoverGain): the data do not decide their poses. Ascending.
   std::vector<std::size_t> ambiguous;
   double score = 0;  // Σ score of the candidates that agree with the chosen poses
 };
