@@ -433,7 +433,7 @@ StitchResult stitch(const std::vector<PointCloud>& scans, const StitchSettings& 
                  [&](std::size_t k) { search[k] = detail::prepare_pair_search(data[k], voxel); });
   const std::vector<PairCandidate> candidates = search_pairs(data, search, maps, settings);
   const detail::Selection selection =
-      detail::select_poses(candidates, data, maps, search, r.diameter, voxel);
+      detail::select_poses(candidates, data, maps, search, r.diameter, voxel, settings.threads);
   r.timings.pairs_ms = ms_since(t);
   t = Clock::now();
   r.edges = make_edges(data, candidates, selection, settings);

@@ -9,6 +9,7 @@
 
 #include "align3d/icp/icp.hpp"
 #include "align3d/se3.hpp"
+#include "detail/parallel.hpp"
 
 namespace align3d::detail {
 
@@ -264,22 +265,29 @@ Placement settle_placement(const Context& x, const Selection& s, const Surroundi
 // changes the others' surroundings. The candidates' scores measure each pair alone: a
 // near-symmetric view turned onto a look-alike face can fit one neighbour better than the truth
 // fits two.
-void settle(const Context& x, Selection& s) {
+void settle(const Context& x, Selection& s, int threads) {
   for (int round = 0; round < kSettleRounds; ++round) {
     bool moved = false;
     for (std::size_t k = 0; k < x.scans.size(); ++k) {
       if (s.group[k] == k) continue;
-      const std::vector<Eigen::Isometry3d> others = placements(x, s, k);
-      if (others.empty()) continue;
+      std::vector<Eigen::Isometry3d> tried = placements(x, s, k);
+      if (tried.empty()) continue;
+      tried.insert(tried.begin(), s.poses[k]);  // where it lies, first
       const Surroundings around = surroundings(x, s, k);
-      const Placement here = settle_placement(x, s, around, k, s.poses[k]);
-      Placement best = here;
-      for (const Eigen::Isometry3d& X : others) {
-        const Placement p = settle_placement(x, s, around, k, X);
-        if (p.cover > best.cover && placement_contradiction(x, s, k, p.pose) <= kMaxJoinFreeSpace)
-          best = p;
-      }
-      if (best.cover >= here.cover + kCoverGain) s.poses[k] = best.pose, moved = true;
+      std::vector<Placement> p(tried.size());
+      parallel_tasks(tried.size(), threads,
+                     [&](std::size_t j) { p[j] = settle_placement(x, s, around, k, tried[j]); });
+      // The others covering clearly more, most first; the first that contradicts no scan.
+      std::vector<std::size_t> better;
+      for (std::size_t j = 1; j < p.size(); ++j)
+        if (p[j].cover >= p[0].cover + kCoverGain) better.push_back(j);
+      std::stable_sort(better.begin(), better.end(),
+                       [&](std::size_t a, std::size_t b) { return p[a].cover > p[b].cover; });
+      for (std::size_t j : better)
+        if (placement_contradiction(x, s, k, p[j].pose) <= kMaxJoinFreeSpace) {
+          s.poses[k] = p[j].pose, moved = true;
+          break;
+        }
     }
     if (!moved) return;
   }
@@ -318,7 +326,8 @@ void find_ambiguous(const Context& x, Selection& s) {
 
 Selection select_poses(const std::vector<PairCandidate>& candidates,
                        const std::vector<ScanData>& scans, const std::vector<DepthMap>& maps,
-                       const std::vector<PairSearchScan>& search, double diameter, double voxel) {
+                       const std::vector<PairSearchScan>& search, double diameter, double voxel,
+                       int threads) {
   const std::size_t n = scans.size();
   Context x{candidates,
             scans,
@@ -342,22 +351,22 @@ Selection select_poses(const std::vector<PairCandidate>& candidates,
   // The forest of that order, then the forests with one of its joins forbidden: a wrong early
   // join (two plain faces of a box fitted onto each other) can found a wrong group that later
   // joins stay consistent with; without it, more candidates agree with the poses.
-  std::vector<char> forbidden(candidates.size(), 0);
   std::vector<Forest> forests;
-  forests.push_back(kruskal(x, order, forbidden));
+  forests.push_back(kruskal(x, order, std::vector<char>(candidates.size(), 0)));
   const std::vector<std::size_t> first_joins = forests.front().joins;
-  for (std::size_t e : first_joins) {
-    forbidden[e] = 1;
-    forests.push_back(kruskal(x, order, forbidden));
-    forbidden[e] = 0;
-  }
+  forests.resize(1 + first_joins.size());
+  parallel_tasks(first_joins.size(), threads, [&](std::size_t j) {
+    std::vector<char> forbidden(candidates.size(), 0);
+    forbidden[first_joins[j]] = 1;
+    forests[1 + j] = kruskal(x, order, forbidden);
+  });
   std::size_t best = 0;
   for (std::size_t k = 0; k < forests.size(); ++k) {
     mark_agreeing(x, forests[k].s);
     if (forests[k].s.score > forests[best].s.score) best = k;
   }
   Selection out = std::move(forests[best].s);
-  settle(x, out);
+  settle(x, out, threads);
   mark_agreeing(x, out);
   find_ambiguous(x, out);
   return out;

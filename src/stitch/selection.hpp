@@ -43,6 +43,7 @@ struct Selection {
 
 Selection select_poses(const std::vector<PairCandidate>& candidates,
                        const std::vector<ScanData>& scans, const std::vector<DepthMap>& maps,
-                       const std::vector<PairSearchScan>& search, double diameter, double voxel);
+                       const std::vector<PairSearchScan>& search, double diameter, double voxel,
+                       int threads);
 
 }  // namespace align3d::detail
