@@ -18,8 +18,10 @@
 //      that close loops with others (i→k→j composes to i→j) are taken first, scans are joined
 //      into groups (Kruskal) unless a join makes two scans of the groups contradict each other
 //      (free space), and of the choices that leave out one early join the one most candidates
-//      agree with is kept. A scan that another placement fits nearly as well is ambiguous (the
-//      warning `ambiguous_scans`). Each pair's candidate that agrees with the choice is its edge,
+//      agree with is kept. Then a scan moves to another placement its candidates give it when
+//      that, refined on the other scans, puts clearly more of its points on their surfaces. A
+//      scan that another placement fits nearly as well is ambiguous (the warning
+//      `ambiguous_scans`). Each pair's candidate that agrees with the choice is its edge,
 //      refined at full resolution (ICP at 2, 1 and ½ of the pair's reach, Geman-McClure), with
 //      its overlap, RMS and information matrix (icp/information.hpp: the point-to-plane ICP
 //      Hessian at the optimum over the noise variance); a pair none agrees with is reported, not
