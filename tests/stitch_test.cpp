@@ -299,37 +299,37 @@ TEST(Stitch, GeneratedRingsOfTheBracketAndTheFlangeAtTheTarget) {
   }
 }
 
-// The keyed flange's ring as `align3d synth --scene stitch --part flange --no-leaf` writes it (seed
-// 39, float32 coordinates): its views pair turned about the axis, and only the lugs tell the turn.
-// Each scan's turn within 0.05° (the noise allows σ ≈ 0.009° about the axis: the Fisher
-// information of the overlapping pairs at the truth), its centroid within 0.1 % of the diameter.
-// Linking only the kept edges in the multi-view ICP left half the ring 0.24–0.26° off about it.
-TEST(Stitch, KeyedFlangeRingAsWrittenWithinTheNoiseAboutItsAxis) {
+// An object's ring as `align3d synth --scene stitch --part P --no-leaf` writes it: seed 39, float32
+// coordinates.
+synth::StitchScans ring_as_written(synth::StitchObject object) {
   synth::StitchScanSettings g;
-  g.object = synth::StitchObject::kKeyedFlange;
+  g.object = object;
   g.seed = 39;
   g.leaf = false;
   synth::StitchScans set = synth::make_stitch_scans(g);
   for (PointCloud& scan : set.scans)
     for (Eigen::Vector3d& p : scan.positions) p = p.cast<float>().cast<double>();
+  return set;
+}
+
+// The keyed flange's ring as the CLI writes it (ring_as_written): its views pair turned about the
+// axis, and only the lugs tell the turn. Each scan's turn within 0.05° (the noise allows σ ≈ 0.009°
+// about the axis: the Fisher information of the overlapping pairs at the truth), its centroid
+// within 0.1 % of the diameter. Linking only the kept edges in the multi-view ICP left half the
+// ring 0.24–0.26° off about it.
+TEST(Stitch, KeyedFlangeRingAsWrittenWithinTheNoiseAboutItsAxis) {
+  const synth::StitchScans set = ring_as_written(synth::StitchObject::kKeyedFlange);
   StitchSettings s;
   s.threads = 2;
   expect_every_scan_within(stitch(set.scans, s), set, 0.05);
 }
 
-// The bracket's ring as `align3d synth --scene stitch --part bracket --no-leaf` writes it (seed 39,
-// float32 coordinates): its side view from just above the floor (scan 5) fits the view across the
-// part (scan 3) turned by a half better than the truth fits its two neighbours, so the pairs'
-// scores alone put it there; refined on all the scans it covers far less there than at the truth
-// (selection.cpp, settle()). Without that step it ended 180° off.
+// The bracket's ring as the CLI writes it (ring_as_written): its side view from just above the
+// floor (scan 5) fits the view across the part (scan 3) turned by a half better than the truth fits
+// its two neighbours, so the pairs' scores alone put it there; refined on all the scans it covers
+// far less there than at the truth (selection.cpp, settle()). Without that step it ended 180° off.
 TEST(Stitch, BracketRingAsWrittenAtTheTarget) {
-  synth::StitchScanSettings g;
-  g.object = synth::StitchObject::kBracket;
-  g.seed = 39;
-  g.leaf = false;
-  synth::StitchScans set = synth::make_stitch_scans(g);
-  for (PointCloud& scan : set.scans)
-    for (Eigen::Vector3d& p : scan.positions) p = p.cast<float>().cast<double>();
+  const synth::StitchScans set = ring_as_written(synth::StitchObject::kBracket);
   StitchSettings s;
   s.threads = 2;
   const StitchResult r = stitch(set.scans, s);
