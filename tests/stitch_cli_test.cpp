@@ -66,7 +66,6 @@ TEST(StitchCli, BadFlagsAreUsageErrors) {
                                                 {"--voxel", "-1"},
                                                 {"--voxel", "nan"},
                                                 {"--threads", "-2"},
-                                                {"--seed", "-1"},
                                                 {"--method", "plane"},
                                                 {"--kernel", "bisquare"},
                                                 {"--kernel-scale", "-1"},
@@ -215,7 +214,7 @@ TEST(StitchReport, HasEveryKeyInItsShape) {
   EXPECT_EQ(j["warnings"][0]["code"], "unconnected_scan");
   EXPECT_EQ(j["timings"]["total_ms"].get<double>(), 15.0);
   for (const char* key : {"min_overlap", "prune_rotation_deg", "prune_translation",
-                          "multiview_iterations", "voxel", "viewpoints", "seed", "threads"})
+                          "multiview_iterations", "voxel", "viewpoints", "threads"})
     EXPECT_TRUE(j["settings"].contains(key)) << key;
   EXPECT_EQ(j["settings"]["viewpoints"][2], nlohmann::json({0.0, 0.0, 5.0}));
   EXPECT_EQ(

@@ -93,7 +93,6 @@ struct StitchSettings {
   // Where each scan's sensor was, in that scan's frame (normals are oriented towards it); empty:
   // the origin of every scan's frame (a depth camera's or a scanner's own coordinates).
   std::vector<Eigen::Vector3d> viewpoints;
-  std::uint64_t seed = 1;
   int threads = 0;  // 0: all cores; the result does not depend on it
   ProgressCallback progress;
 };

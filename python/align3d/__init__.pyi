@@ -369,7 +369,6 @@ def stitch(
     prune_translation: float = ...,
     multiview_iterations: int = ...,
     viewpoints: Optional[ArrayLike] = ...,
-    seed: int = ...,
     threads: int = ...,
     report: Optional[PathLike] = ...,
     output: Optional[PathLike] = ...,

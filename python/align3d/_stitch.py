@@ -12,7 +12,7 @@ import numpy as np
 from . import _core
 from ._cloud import PathLike, PointCloud, _read, rows
 from ._errors import DataError, StrictError
-from ._register import (_Report, _int32, _is_path, _real, _seed, _text, _warn_all,
+from ._register import (_Report, _int32, _is_path, _real, _text, _warn_all,
                         _write_report)
 
 _DEFAULTS = _core.stitch_defaults()
@@ -116,7 +116,7 @@ def stitch(scans: Sequence[Any], *, min_overlap: float = _DEFAULTS["min_overlap"
            prune_rotation: float = _DEFAULTS["prune_rotation"],
            prune_translation: float = _DEFAULTS["prune_translation"],
            multiview_iterations: int = _DEFAULTS["multiview_iterations"],
-           viewpoints: Optional[Any] = None, seed: int = 1, threads: int = 0,
+           viewpoints: Optional[Any] = None, threads: int = 0,
            report: Optional[PathLike] = None, output: Optional[PathLike] = None,
            figure: Optional[PathLike] = None, html: Optional[PathLike] = None,
            scan_index: bool = True, method: str = _DEFAULTS["method"],
@@ -132,7 +132,8 @@ def stitch(scans: Sequence[Any], *, min_overlap: float = _DEFAULTS["min_overlap"
     ``viewpoints``: where each scan's sensor was, in its own frame, (K, 3); None: a PCD file's
     VIEWPOINT, else the origin (a depth camera's own coordinates). ``min_overlap``, ``voxel``
     (0: from the point spacing), ``prune_rotation`` (degrees), ``prune_translation`` (share of the
-    object's diameter), ``multiview_iterations``, ``seed``, ``threads``: as the flags.
+    object's diameter), ``multiview_iterations``, ``threads``: as the flags (stitching draws no
+    random numbers: it takes no seed).
     ``method`` (``"point-to-plane"``, ``"point-to-point"``, ``"gicp"``, ``"symmetric"``),
     ``kernel`` (``"auto"``: Geman-McClure at half the reach, for the pairs and the multi-view ICP,
     or a kernel as :func:`register` takes) and ``kernel_scale`` (0: from the noise): the ICP cost of
@@ -162,7 +163,7 @@ def stitch(scans: Sequence[Any], *, min_overlap: float = _DEFAULTS["min_overlap"
         voxel=_real("voxel", voxel), prune_rotation=_real("prune_rotation", prune_rotation),
         prune_translation=_real("prune_translation", prune_translation),
         multiview_iterations=_int32("multiview_iterations", multiview_iterations),
-        viewpoints=eyes, seed=_seed(seed), threads=_int32("threads", threads),
+        viewpoints=eyes, threads=_int32("threads", threads),
         paths=[p for _, p, _ in loaded], output=os.fspath(output) if output else "",
         figure=os.fspath(figure) if figure else "", html=os.fspath(html) if html else "",
         scan_index=bool(scan_index), method=_text("method", method),

@@ -23,7 +23,6 @@ struct StitchArgs {
   double min_overlap, voxel, prune_rotation, prune_translation;
   int multiview_iterations;
   std::vector<Eigen::Vector3d> viewpoints;
-  std::uint64_t seed;
   int threads;
   std::vector<std::string> paths;  // per scan, "" in memory
   std::string output, figure, html;
@@ -58,7 +57,7 @@ py::tuple stitch_scans(const std::vector<PointCloud>& scans, const StitchArgs& a
   s.min_overlap = a.min_overlap, s.voxel = a.voxel;
   s.prune_rotation_deg = a.prune_rotation, s.prune_translation = a.prune_translation;
   s.multiview_iterations = a.multiview_iterations;
-  s.viewpoints = a.viewpoints, s.seed = a.seed, s.threads = a.threads;
+  s.viewpoints = a.viewpoints, s.threads = a.threads;
   set_cost(s.cost, a.method, a.kernel, a.kernel_scale);
   StitchResult r;
   std::string report;
@@ -86,19 +85,19 @@ void bind_stitch(py::module_& m) {
       "stitch",
       [](const std::vector<PointCloud>& scans, double min_overlap, double voxel,
          double prune_rotation, double prune_translation, int multiview_iterations,
-         const Rows& viewpoints, std::uint64_t seed, int threads,
+         const Rows& viewpoints, int threads,
          const std::vector<std::string>& paths, const std::string& output,
          const std::string& figure, const std::string& html, bool scan_index,
          const std::string& method, const std::string& kernel, double kernel_scale) {
         return stitch_scans(
             scans,
             StitchArgs{min_overlap, voxel, prune_rotation, prune_translation, multiview_iterations,
-                       points_of(viewpoints, "viewpoints"), seed, threads, paths, output, figure,
+                       points_of(viewpoints, "viewpoints"), threads, paths, output, figure,
                        html, scan_index, method, kernel, kernel_scale});
       },
       py::arg("scans"), py::kw_only(), py::arg("min_overlap"), py::arg("voxel"),
       py::arg("prune_rotation"), py::arg("prune_translation"), py::arg("multiview_iterations"),
-      py::arg("viewpoints"), py::arg("seed"), py::arg("threads"), py::arg("paths"),
+      py::arg("viewpoints"), py::arg("threads"), py::arg("paths"),
       py::arg("output"), py::arg("figure"), py::arg("html"), py::arg("scan_index"),
       py::arg("method"), py::arg("kernel"), py::arg("kernel_scale"));
   const StitchSettings s;
@@ -107,7 +106,7 @@ void bind_stitch(py::module_& m) {
         py::arg("min_overlap") = s.min_overlap, py::arg("voxel") = s.voxel,
         py::arg("prune_rotation") = s.prune_rotation_deg,
         py::arg("prune_translation") = s.prune_translation,
-        py::arg("multiview_iterations") = s.multiview_iterations, py::arg("seed") = s.seed,
+        py::arg("multiview_iterations") = s.multiview_iterations,
         py::arg("threads") = s.threads, py::arg("method") = to_string(s.cost.method),
         py::arg("kernel") = kernel_name(s.cost), py::arg("kernel_scale") = s.cost.kernel_scale);
   });

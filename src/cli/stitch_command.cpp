@@ -220,7 +220,6 @@ Command add_stitch(CLI::App& app, Streams io) {
                      {"each chosen pair's refinement and of the multi-view ICP (which runs "
                       "point-to-plane for point-to-point)",
                       "Geman-McClure at half the reach, for the pairs and the multi-view ICP"});
-  add_seed(sub, s.seed);
   add_strict(sub, o->strict);
   add_quiet(sub, o->quiet);
   add_threads(sub, s.threads);

@@ -97,7 +97,6 @@ nlohmann::json stitch_settings_json(const StitchSettings& s) {
           {"multiview_iterations", s.multiview_iterations},
           {"voxel", s.voxel},
           {"viewpoints", viewpoints},
-          {"seed", s.seed},
           {"threads", s.threads},
           {"icp", cost_json(s.cost)}};
 }
