@@ -85,30 +85,30 @@ void bind_stitch(py::module_& m) {
       "stitch",
       [](const std::vector<PointCloud>& scans, double min_overlap, double voxel,
          double prune_rotation, double prune_translation, int multiview_iterations,
-         const Rows& viewpoints, int threads,
-         const std::vector<std::string>& paths, const std::string& output,
-         const std::string& figure, const std::string& html, bool scan_index,
-         const std::string& method, const std::string& kernel, double kernel_scale) {
+         const Rows& viewpoints, int threads, const std::vector<std::string>& paths,
+         const std::string& output, const std::string& figure, const std::string& html,
+         bool scan_index, const std::string& method, const std::string& kernel,
+         double kernel_scale) {
         return stitch_scans(
             scans,
             StitchArgs{min_overlap, voxel, prune_rotation, prune_translation, multiview_iterations,
-                       points_of(viewpoints, "viewpoints"), threads, paths, output, figure,
-                       html, scan_index, method, kernel, kernel_scale});
+                       points_of(viewpoints, "viewpoints"), threads, paths, output, figure, html,
+                       scan_index, method, kernel, kernel_scale});
       },
       py::arg("scans"), py::kw_only(), py::arg("min_overlap"), py::arg("voxel"),
       py::arg("prune_rotation"), py::arg("prune_translation"), py::arg("multiview_iterations"),
-      py::arg("viewpoints"), py::arg("threads"), py::arg("paths"),
-      py::arg("output"), py::arg("figure"), py::arg("html"), py::arg("scan_index"),
-      py::arg("method"), py::arg("kernel"), py::arg("kernel_scale"));
+      py::arg("viewpoints"), py::arg("threads"), py::arg("paths"), py::arg("output"),
+      py::arg("figure"), py::arg("html"), py::arg("scan_index"), py::arg("method"),
+      py::arg("kernel"), py::arg("kernel_scale"));
   const StitchSettings s;
   m.def("stitch_defaults", [s] {
-    return py::dict(
-        py::arg("min_overlap") = s.min_overlap, py::arg("voxel") = s.voxel,
-        py::arg("prune_rotation") = s.prune_rotation_deg,
-        py::arg("prune_translation") = s.prune_translation,
-        py::arg("multiview_iterations") = s.multiview_iterations,
-        py::arg("threads") = s.threads, py::arg("method") = to_string(s.cost.method),
-        py::arg("kernel") = kernel_name(s.cost), py::arg("kernel_scale") = s.cost.kernel_scale);
+    return py::dict(py::arg("min_overlap") = s.min_overlap, py::arg("voxel") = s.voxel,
+                    py::arg("prune_rotation") = s.prune_rotation_deg,
+                    py::arg("prune_translation") = s.prune_translation,
+                    py::arg("multiview_iterations") = s.multiview_iterations,
+                    py::arg("threads") = s.threads, py::arg("method") = to_string(s.cost.method),
+                    py::arg("kernel") = kernel_name(s.cost),
+                    py::arg("kernel_scale") = s.cost.kernel_scale);
   });
 }
 
