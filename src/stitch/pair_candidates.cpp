@@ -41,21 +41,6 @@ struct Pair {
   bool source_smaller;
 };
 
-// Point-to-plane ICP of `source` onto `target` from T, pairs within each reach in turn.
-Eigen::Isometry3d icp_rounds(const PointCloud& source, const PointCloud& target, const KdTree& tree,
-                             Eigen::Isometry3d T, std::initializer_list<double> reaches,
-                             int iterations, double kernel_scale = 0) {
-  IcpSettings s;
-  s.termination.max_iterations = iterations;
-  s.threads = 1;
-  if (kernel_scale > 0) s.kernel = RobustKernel::kGemanMcClure, s.kernel_scale = kernel_scale;
-  for (const double reach : reaches) {
-    s.rejection = RejectionRule::max_distance(reach);
-    T = icp(source, target, tree, T, s).T_target_source;
-  }
-  return T;
-}
-
 Eigen::Isometry3d coarse_icp(const Pair& p, const Eigen::Isometry3d& T) {
   return icp_rounds(p.a.probe, p.b.down, *p.b.down_tree, T, {2 * p.voxel, p.voxel},
                     kCoarseIterations);
@@ -145,6 +130,20 @@ Eigen::Isometry3d turn(const Line& line, double degrees) {
 }
 
 }  // namespace
+
+Eigen::Isometry3d icp_rounds(const PointCloud& source, const PointCloud& target, const KdTree& tree,
+                             Eigen::Isometry3d T, std::initializer_list<double> reaches,
+                             int iterations, double kernel_scale) {
+  IcpSettings s;
+  s.termination.max_iterations = iterations;
+  s.threads = 1;
+  if (kernel_scale > 0) s.kernel = RobustKernel::kGemanMcClure, s.kernel_scale = kernel_scale;
+  for (const double reach : reaches) {
+    s.rejection = RejectionRule::max_distance(reach);
+    T = icp(source, target, tree, T, s).T_target_source;
+  }
+  return T;
+}
 
 bool same_pose(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, const Eigen::Vector3d& c,
                double degrees, double distance) {

@@ -27,6 +27,7 @@
 
 #include <Eigen/Geometry>
 #include <cstddef>
+#include <initializer_list>
 #include <memory>
 #include <vector>
 
@@ -65,6 +66,13 @@ std::vector<PairCandidate> pair_candidates(std::size_t i, std::size_t j,
                                            const std::vector<ScanData>& scans,
                                            const std::vector<PairSearchScan>& search,
                                            const std::vector<DepthMap>& maps, double min_overlap);
+
+// Point-to-plane ICP of `source` onto `target` (indexed by `tree`) from T, single-threaded, pairs
+// within each reach in turn, `iterations` at most each; Geman-McClure of `kernel_scale` when that
+// is positive.
+Eigen::Isometry3d icp_rounds(const PointCloud& source, const PointCloud& target, const KdTree& tree,
+                             Eigen::Isometry3d T, std::initializer_list<double> reaches,
+                             int iterations, double kernel_scale = 0);
 
 // Whether two relative poses of scan `source` agree: rotations within `degrees`, and the centroid
 // c moved to within `distance`.

@@ -7,7 +7,6 @@
 #include <numeric>
 #include <optional>
 
-#include "align3d/icp/icp.hpp"
 #include "align3d/se3.hpp"
 #include "detail/parallel.hpp"
 
@@ -247,16 +246,9 @@ struct Placement {
 Placement settle_placement(const Context& x, const Selection& s, const Surroundings& around,
                            std::size_t k, const Eigen::Isometry3d& X) {
   const double voxel = x.search[k].model.voxel;
-  IcpSettings is;
-  is.termination.max_iterations = kSettleIterations;
-  is.threads = 1;
-  is.kernel = RobustKernel::kGemanMcClure;
-  is.kernel_scale = voxel / 2;
-  Placement p{X};
-  for (const double reach : {2 * voxel, voxel}) {
-    is.rejection = RejectionRule::max_distance(reach);
-    p.pose = icp(x.search[k].sample, around.cloud, *around.tree, p.pose, is).T_target_source;
-  }
+  Placement p;
+  p.pose = icp_rounds(x.search[k].sample, around.cloud, *around.tree, X, {2 * voxel, voxel},
+                      kSettleIterations, voxel / 2);
   p.cover = coverage(x, s, k, p.pose);
   return p;
 }
