@@ -41,9 +41,9 @@ struct Pair {
   bool source_smaller;
 };
 
-Eigen::Isometry3d coarse_icp(const Pair& p, const Eigen::Isometry3d& T) {
-  return icp_rounds(p.a.probe, p.b.down, *p.b.down_tree, T, {2 * p.voxel, p.voxel},
-                    kCoarseIterations);
+// Step 2's ICP of the probe onto scan j's thinned points at one reach.
+Eigen::Isometry3d coarse_icp(const Pair& p, const Eigen::Isometry3d& T, double reach) {
+  return icp_rounds(p.a.probe, p.b.down, *p.b.down_tree, T, {reach}, kCoarseIterations);
 }
 
 // Geman-McClure at the pair's reach: without it, a box's plain faces let a partial overlap slide
@@ -170,9 +170,18 @@ std::vector<PairCandidate> coarse_candidates(const Pair& p, double min_overlap) 
   std::vector<PairCandidate> list;
   const std::vector<PpfHypothesis> hyps = ppf_hypotheses(
       p.a.model, every_mth(p.b.down, p.b.down.size() / kVotingStride), Symmetry{}, kHypotheses, 1);
+  // ICP at 2 voxels, then at 1. Many hypotheses meet after the first round (one face's votes
+  // spread over nearby poses): each meeting place goes on once.
+  std::vector<Eigen::Isometry3d> met;
   for (const PpfHypothesis& h : hyps) {
+    const Eigen::Isometry3d T = coarse_icp(p, h.T_scene_model, 2 * p.voxel);
+    if (std::any_of(met.begin(), met.end(), [&](const Eigen::Isometry3d& M) {
+          return same_pose(M, T, p.c, kCoarseDistinctDeg, p.voxel);
+        }))
+      continue;
+    met.push_back(T);
     PairCandidate e{p.i, p.j};
-    e.T_target_source = coarse_icp(p, h.T_scene_model);
+    e.T_target_source = coarse_icp(p, T, p.voxel);
     e.overlap = overlap(p, e.T_target_source);
     if (e.overlap >= min_overlap) list.push_back(e);
   }

@@ -9,9 +9,10 @@
 //      against scan i's table (its normals point to its sensor: the outward side of what it saw),
 //      the kHypotheses strongest pose clusters;
 //   2. each refined by point-to-plane ICP of a probe of scan i's thinned points (at most
-//      kProbePoints) onto scan j's (2 then 1 voxel), its overlap the share of the smaller scan's
-//      thinned points (by robust extent) on the other's surface (surface_fit); those of at least
-//      min_overlap, distinct, the kFineKept best by overlap going on;
+//      kProbePoints) onto scan j's (2 then 1 voxel; those that meet after the first round go on
+//      once), its overlap the share of the smaller scan's thinned points (by robust extent) on
+//      the other's surface (surface_fit); those of at least min_overlap, distinct, the kFineKept
+//      best by overlap going on;
 //   2b. when two or more of those turn about one axis from the best (a part of revolution, or
 //      nearly), the best turned about that axis in steps, the turns of least free space added;
 //   3. each refined again on a sample of scan i against all of scan j, kept when it fits at the
