@@ -292,13 +292,15 @@ void settle(const Context& x, Selection& s, int threads) {
 // placement's agreement), that, refined, covers nearly as much of the scan (within kCoverGain,
 // settle_placement()) and contradicts no scan: the data do not decide where they lie. The
 // box-like bracket's view that sees two plain side faces only fits its neighbours on either side
-// turned by a half as well as at the truth.
+// turned by a half as well as at the truth. An alternative that, refined, settles where the chosen
+// placement settles is none: the keyed flange's view 2.5° off about its axis (just beyond
+// kAgreeDeg) refined onto the very pose the chosen one refined to (generated 8-view ring).
 void find_ambiguous(const Context& x, Selection& s) {
   for (std::size_t k = 1; k < x.scans.size(); ++k) {
     if (s.group[k] != 0) continue;
     const Agreement chosen = agreement(x, s, k, s.poses[k]);
     std::optional<Surroundings> around;
-    double cover = 0;
+    Placement here;
     for (const Eigen::Isometry3d& X : placements(x, s, k)) {
       const Agreement other = agreement(x, s, k, X);
       if (other.scans < std::min<std::size_t>(2, chosen.scans) ||
@@ -307,9 +309,10 @@ void find_ambiguous(const Context& x, Selection& s) {
         continue;
       if (!around) {
         around = surroundings(x, s, k);
-        cover = settle_placement(x, s, *around, k, s.poses[k]).cover;
+        here = settle_placement(x, s, *around, k, s.poses[k]);
       }
-      if (settle_placement(x, s, *around, k, X).cover < cover - kCoverGain) continue;
+      const Placement there = settle_placement(x, s, *around, k, X);
+      if (there.cover < here.cover - kCoverGain || x.same(k, there.pose, here.pose)) continue;
       s.ambiguous.push_back(k);
       break;
     }
