@@ -425,12 +425,13 @@ StitchResult stitch(const std::vector<PointCloud>& scans, const StitchSettings& 
   for (const ScanData& d : data) noise = std::max(noise, d.scale.noise);
 
   auto t = Clock::now();
-  std::vector<DepthMap> maps;
-  for (const ScanData& d : data) maps.push_back(detail::depth_map(d));
   const double voxel = kPairVoxelShare * r.diameter;
+  std::vector<DepthMap> maps(data.size());
   std::vector<PairSearchScan> search(data.size());
-  parallel_tasks(data.size(), settings.threads,
-                 [&](std::size_t k) { search[k] = detail::prepare_pair_search(data[k], voxel); });
+  parallel_tasks(data.size(), settings.threads, [&](std::size_t k) {
+    maps[k] = detail::depth_map(data[k]);
+    search[k] = detail::prepare_pair_search(data[k], voxel);
+  });
   const std::vector<PairCandidate> candidates = search_pairs(data, search, maps, settings);
   const detail::Selection selection =
       detail::select_poses(candidates, data, maps, search, r.diameter, voxel, settings.threads);
