@@ -35,8 +35,10 @@
 //      min_overlap: a near-symmetric part's pair whose candidates all came turned still holds its
 //      turn), all poses solved together, so the residual is spread over the loop instead of
 //      accumulating along it: pairs of a few thousand points a scan within the pairs' reach, then
-//      of every point within a spacing or three noise levels; each stage stops when the scans
-//      have settled, but for any that keeps sliding (multiview_icp.hpp).
+//      of the half of each scan's points that hold its pose best (icp/sampling.hpp: the points of
+//      most leverage, which a near-symmetric part's turn rests on, and every m-th of the others)
+//      within a spacing or three noise levels; each stage stops when the scans have settled, but
+//      for any that keeps sliding (multiview_icp.hpp).
 //   5. the merged cloud (stitch/merge.hpp): the scans in the first scan's frame, one point per
 //      voxel (size from the scans' point spacing, or `voxel`), normals oriented towards the sensor
 //      of the scan they came from and averaged, the scan index of each merged point.
@@ -124,8 +126,9 @@ struct StitchScan {
   bool connected = false;  // reached from the first scan through kept edges
   std::size_t points = 0;
   std::size_t edges = 0;  // kept edges at this scan
-  // Distances of its points to its neighbours' surfaces (point-to-plane, pairs within the final
-  // multi-view ICP's reach) in the final poses: their count, RMS, median and 95th percentile.
+  // Distances of its points (the second multi-view ICP stage's half, step 4) to its neighbours'
+  // surfaces (point-to-plane, pairs within that stage's reach) in the final poses: their count,
+  // RMS, median and 95th percentile.
   std::size_t pairs = 0;
   double rms = 0, median = 0, p95 = 0;
   // The codes of the result's warnings that name this scan (unconnected_scan, single_edge_scan,
