@@ -454,7 +454,7 @@ StitchResult stitch(const std::vector<PointCloud>& scans, const StitchSettings& 
   std::vector<PairSearchScan> search(data.size());
   parallel_tasks(data.size(), settings.threads, [&](std::size_t k) {
     maps[k] = detail::depth_map(data[k]);
-    search[k] = detail::prepare_pair_search(data[k], voxel);
+    search[k] = detail::prepare_pair_search(data[k], voxel, k + 1 < data.size());
   });
   const std::vector<PairCandidate> candidates = search_pairs(data, search, maps, settings);
   const detail::Selection selection =

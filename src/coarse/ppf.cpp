@@ -552,17 +552,22 @@ void read_entries(BodyReader& body, const TableCounts& n, PpfModel& model) {
 
 }  // namespace
 
-PpfModel build_ppf_model(const PointCloud& model, double voxel, int threads, bool outward) {
+double ppf_model_voxel(const PointCloud& model, double voxel) {
   if (!(voxel > 0) || !std::isfinite(voxel))
     throw std::invalid_argument("build_ppf_model: voxel size must be positive");
-  if (outward && !model.has_normals())
-    throw std::invalid_argument("build_ppf_model: outward normals need a model with normals");
   // Bound the table (N² pairs): enlarge the voxel until at most kMaxModelPoints remain.
   std::size_t count = voxel_downsample(model, voxel).size();
   while (count > kMaxModelPoints) {
     voxel *= std::max(1.05, std::sqrt(static_cast<double>(count) / kMaxModelPoints));
     count = voxel_downsample(model, voxel).size();
   }
+  return voxel;
+}
+
+PpfModel build_ppf_model(const PointCloud& model, double voxel, int threads, bool outward) {
+  voxel = ppf_model_voxel(model, voxel);
+  if (outward && !model.has_normals())
+    throw std::invalid_argument("build_ppf_model: outward normals need a model with normals");
   PpfModel out;
   out.voxel = voxel;
   out.outward = outward;

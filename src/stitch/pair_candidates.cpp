@@ -151,10 +151,13 @@ bool same_pose(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, const Eig
          (a * c - b * c).norm() < distance;
 }
 
-PairSearchScan prepare_pair_search(const ScanData& scan, double voxel) {
+PairSearchScan prepare_pair_search(const ScanData& scan, double voxel, bool table) {
   PairSearchScan s;
   // The scan's normals point to its sensor: the outward side of the surface it saw.
-  s.model = build_ppf_model(scan.cloud, voxel, 1, true);
+  if (table)
+    s.model = build_ppf_model(scan.cloud, voxel, 1, true);
+  else
+    s.model.voxel = ppf_model_voxel(scan.cloud, voxel);
   s.down = ppf_scene(scan.cloud, s.model.voxel, scan.viewpoint, 1);
   s.down_tree = std::make_unique<KdTree>(s.down.positions, 1);
   s.probe = every_mth(s.down, kProbePoints);

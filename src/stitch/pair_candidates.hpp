@@ -49,16 +49,17 @@ struct PairCandidate {
   double score = 0;       // step 4
 };
 
-// What a scan brings to every pair, prepared once: its point pair feature table, its thinned
-// cloud (normals to its sensor) with a tree, a probe of that cloud (kProbePoints) and a sample of
-// its own points (kFineSamples), each taken every m-th.
+// What a scan brings to every pair, prepared once: its point pair feature table (with `table`:
+// only a pair's first scan votes with its table, so the last scan needs none; model.voxel is set
+// either way), its thinned cloud (normals to its sensor) with a tree, a probe of that cloud
+// (kProbePoints) and a sample of its own points (kFineSamples), each taken every m-th.
 struct PairSearchScan {
   PpfModel model;
   PointCloud down;
   std::unique_ptr<KdTree> down_tree;
   PointCloud probe, sample;
 };
-PairSearchScan prepare_pair_search(const ScanData& scan, double voxel);
+PairSearchScan prepare_pair_search(const ScanData& scan, double voxel, bool table);
 
 // The candidates of scans i < j, best score first (none when they do not overlap). `voxel` is the
 // search's thinning (the model's, PairSearchScan::model.voxel); single-threaded (the caller runs

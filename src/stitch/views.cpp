@@ -5,6 +5,7 @@
 #include <string>
 
 #include "align3d/normals.hpp"
+#include "detail/parallel.hpp"
 
 namespace align3d::detail {
 
@@ -20,19 +21,22 @@ constexpr double kMinSeenShare = 0.02;
 
 std::vector<ScanData> prepare_scans(const std::vector<PointCloud>& scans,
                                     const std::vector<Eigen::Vector3d>& viewpoints, int threads) {
-  std::vector<ScanData> out(scans.size());
-  for (std::size_t k = 0; k < scans.size(); ++k) {
+  for (std::size_t k = 0; k < scans.size(); ++k)
     check_registrable(scans[k], "scan " + std::to_string(k));
+  // The scans in parallel, one thread each (a scan's tree, normals and scale are the same at any
+  // thread count).
+  std::vector<ScanData> out(scans.size());
+  parallel_tasks(scans.size(), threads, [&](std::size_t k) {
     ScanData& d = out[k];
     d.cloud = scans[k];
-    d.tree = std::make_unique<KdTree>(d.cloud.positions, threads);
+    d.tree = std::make_unique<KdTree>(d.cloud.positions, 1);
     if (!viewpoints.empty()) d.viewpoint = viewpoints[k];
     NormalSettings ns;
     ns.viewpoint = d.viewpoint;
-    ns.threads = threads;
+    ns.threads = 1;
     estimate_normals(d.cloud, *d.tree, ns);  // the file's normals may point anywhere
     d.scale = measure_scale(d.cloud, *d.tree);
-  }
+  });
   return out;
 }
 

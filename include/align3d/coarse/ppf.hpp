@@ -57,6 +57,10 @@ struct PpfModel {
   std::vector<float> alphas;
 };
 
+// The voxel build_ppf_model(model, voxel, …) downsamples `model` with: `voxel` (> 0), enlarged
+// until at most 1500 voxel centroids remain. std::invalid_argument for a voxel not positive.
+double ppf_model_voxel(const PointCloud& model, double voxel);
+
 // Downsamples `model` with `voxel` (> 0; enlarged until at most 1500 points remain, so the table
 // holds at most ~2.25 M pairs; PpfModel::voxel is the size used), estimates normals and builds the
 // table. Throws DataError("model", …) with fewer than 10 points after downsampling or all points
