@@ -23,17 +23,20 @@ std::vector<ScanData> prepare_scans(const std::vector<PointCloud>& scans,
                                     const std::vector<Eigen::Vector3d>& viewpoints, int threads) {
   for (std::size_t k = 0; k < scans.size(); ++k)
     check_registrable(scans[k], "scan " + std::to_string(k));
-  // The scans in parallel, one thread each (a scan's tree, normals and scale are the same at any
-  // thread count).
+  // The scans in parallel, one thread each, when there are enough of them to keep the threads
+  // busy; else one after another, each on all threads (a scan's tree, normals and scale are the
+  // same at any thread count).
+  const bool across = scans.size() >= static_cast<std::size_t>(thread_count(threads));
+  const int inner = across ? 1 : threads;
   std::vector<ScanData> out(scans.size());
-  parallel_tasks(scans.size(), threads, [&](std::size_t k) {
+  parallel_tasks(scans.size(), across ? threads : 1, [&](std::size_t k) {
     ScanData& d = out[k];
     d.cloud = scans[k];
-    d.tree = std::make_unique<KdTree>(d.cloud.positions, 1);
+    d.tree = std::make_unique<KdTree>(d.cloud.positions, inner);
     if (!viewpoints.empty()) d.viewpoint = viewpoints[k];
     NormalSettings ns;
     ns.viewpoint = d.viewpoint;
-    ns.threads = 1;
+    ns.threads = inner;
     estimate_normals(d.cloud, *d.tree, ns);  // the file's normals may point anywhere
     d.scale = measure_scale(d.cloud, *d.tree);
   });
