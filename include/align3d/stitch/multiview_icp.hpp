@@ -11,7 +11,10 @@
 // updates about the scans' common centroid; node 0 held fixed) is one dense 6N × 6N solve. A
 // link's sums are kept from the iteration before while neither of its scans has moved by the
 // tolerance since they were taken: once most scans have settled, only the links of those still
-// moving are paired again. It stops when every scan has settled (moved by less than the tolerance)
+// moving are paired again; and a link remembers which sampled points lay within twice
+// max_distance of the other scan, each with its partner, and searches only those (each from its
+// partner's distance) until the poses have drifted by max_distance: the same pairs, fewer and
+// shorter searches. It stops when every scan has settled (moved by less than the tolerance)
 // but those that slide: moved by the tolerance in each of the last ten iterations, the last step
 // at least half the one five before (a right scan's creep shrinks faster).
 // Written here rather than with Ceres:
