@@ -31,8 +31,9 @@ parallel_tests='^(TsanSelfCheck|PreparedTarget|Parallel|KdTree|SpatialOrder|Norm
 # Left out: four end-to-end tests of 24–37 s each under TSan (114 of 280 test-seconds) whose
 # parallel paths the suites' other tests take too (Align.SameResultWithOneOrTwoThreads,
 # PreparedTarget.ConcurrentCallsGiveTheSerialResults, MeshAlign.SameDataInMetresGivesTheSamePose),
-# and the animal's three (52 s and 34 s for two), whose refine() and align() paths Refine.* and
-# Align.* take.
-slow_tests='^(PreparedTarget\.SamePoseAsThePlainTargetOnEveryPath|PreparedTarget\.ManyScansAgainstOneModel|Align\.RangeScansOfAnObject|MeshAlign\.AlignOntoAMeshFindsThePoseFromAnyStart|Refine\.EveryMethodAloneRegistersAViewOfTheAnimalFromThirtyDegrees|Refine\.TwoRangeScansOfTheAnimalFromThirtyDegrees|Align\.RangeScansOfTheAnimal)$'
+# the animal's three (52 s and 34 s for two), whose refine() and align() paths Refine.* and
+# Align.* take, and Refine.HopsOnlyFromAnUnconfirmedPose (71 s, measured 2026-11-28: a sixth of the
+# stage's test-seconds), whose basin hopping Refine.BasinHoppingLeavesTheBumpySpheresWrongTurns takes.
+slow_tests='^(PreparedTarget\.SamePoseAsThePlainTargetOnEveryPath|PreparedTarget\.ManyScansAgainstOneModel|Align\.RangeScansOfAnObject|MeshAlign\.AlignOntoAMeshFindsThePoseFromAnyStart|Refine\.EveryMethodAloneRegistersAViewOfTheAnimalFromThirtyDegrees|Refine\.TwoRangeScansOfTheAnimalFromThirtyDegrees|Align\.RangeScansOfTheAnimal|Refine\.HopsOnlyFromAnUnconfirmedPose)$'
 ctest --test-dir "$build_dir" -j "${JOBS:-2}" --output-on-failure --timeout 900 -R "$parallel_tests" \
   -E "$slow_tests"
