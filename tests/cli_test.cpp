@@ -68,6 +68,7 @@ TEST_F(Cli, RegisterWritesTheReportAndTheAlignedCloud) {
   ASSERT_EQ(j["transformation"].size(), 4u);
   for (const auto& row : j["transformation"]) EXPECT_EQ(row.size(), 4u);
   EXPECT_TRUE(j["converged"].get<bool>());
+  EXPECT_FALSE(j.at("unconfirmed").get<bool>());  // the right pose, RMS at the noise
   EXPECT_LT(j["rotation_error_deg"].get<double>(), 0.05);
   EXPECT_LT(j["translation_error"].get<double>(), 0.02);
   EXPECT_NEAR(j["rotation_deg"].get<double>(), 12.0, 0.05);

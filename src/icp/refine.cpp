@@ -327,7 +327,7 @@ void refine_schedule(const PointCloud& source, RefineTarget& target, const Eigen
   coarse.termination = {kCoarseIterations, 1e-4, true, 1e-5, 1e-6};
   coarse.kernel = RobustKernel::kGemanMcClure;
   CoarseEnd end = coarse_stages(coarse_source, init, diagonal, floor, coarse, run);
-  {
+  {  // Step 3, in a block of its own: the source's copy with normals lives only while it hops.
     PointCloud copy;
     const PointCloud* oriented = nullptr;  // the coarse source with normals, for GICP's candidates
     auto candidate = [&](const Eigen::Isometry3d& start, IcpMethod method) {

@@ -35,7 +35,8 @@ nlohmann::json refine_json(const RefineResult& r) {
           {"history", history},
           {"stages", stages},
           {"hops", r.hops},
-          {"hopped", r.hopped}};
+          {"hopped", r.hopped},
+          {"unconfirmed", r.unconfirmed}};
 }
 
 nlohmann::json init_json(const AlignResult& r, const AlignSettings& s) {
