@@ -605,5 +605,57 @@ TEST_F(FigureTest, HeatMapsDrawPanelsSideBySide) {
   EXPECT_TRUE(near(png.at(high[0].cx(), high[0].y0 + 3), kHighEnd));
 }
 
+TEST_F(FigureTest, HeatMapsInRowsOfColumnsLineUp) {
+  // Six 2 x 2 panels of 300 x 300 in rows of three, each with min_value in its lower-left cell;
+  // the last (lower right) also has max_value in its upper-right cell.
+  std::vector<HeatMap> panels;
+  for (int i = 0; i < 6; ++i) {
+    HeatMap m = grid_map(2, 2, 0.5);
+    m.title = "panel " + std::to_string(i);
+    m.values(0, 0) = 0;
+    m.width = m.height = 300;
+    panels.push_back(m);
+  }
+  panels[5].values(1, 1) = 1;
+  write_heatmaps(panels, "Convergence basin", dir_ / "rows", 3);
+  const Image png(dir_ / "rows.png");
+  ASSERT_TRUE(png.ok());
+  EXPECT_EQ(png.width(), 900);   // a row's panels' widths
+  EXPECT_EQ(png.height(), 600);  // the rows' heights
+  auto low = blobs(png, kLowEnd, 200);
+  const auto high = blobs(png, kHighEnd, 200);
+  ASSERT_EQ(low.size(), 6u);
+  ASSERT_EQ(high.size(), 1u);
+  // Three low cells in the upper half and three in the lower, each row's on one line, and the
+  // columns of the two rows over each other.
+  std::stable_sort(low.begin(), low.end(),
+                   [](const Blob& a, const Blob& b) { return a.cy() < b.cy(); });
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_LT(low[k].y1, png.height() / 2) << k;
+    EXPECT_GT(low[3 + k].y0, png.height() / 2) << k;
+    EXPECT_NEAR(low[k].cy(), low[0].cy(), 2) << k;
+    EXPECT_NEAR(low[3 + k].cy(), low[3].cy(), 2) << k;
+  }
+  std::sort(low.begin(), low.begin() + 3,
+            [](const Blob& a, const Blob& b) { return a.cx() < b.cx(); });
+  std::sort(low.begin() + 3, low.end(),
+            [](const Blob& a, const Blob& b) { return a.cx() < b.cx(); });
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_NEAR(low[k].x0, low[3 + k].x0, 2) << k;
+    EXPECT_NEAR(low[k].x1, low[3 + k].x1, 2) << k;
+  }
+  // The high cell: the last panel's upper right, right of and above its low cell.
+  EXPECT_GT(high[0].x0, low[5].x1);
+  EXPECT_LT(high[0].y1, low[5].y0);
+  EXPECT_GT(high[0].y0, png.height() / 2);
+
+  // More columns than panels: one row, as with 0.
+  write_heatmaps(std::vector<HeatMap>(panels.begin(), panels.begin() + 2), "", dir_ / "one", 5);
+  const Image one(dir_ / "one.png");
+  ASSERT_TRUE(one.ok());
+  EXPECT_EQ(one.width(), 600);
+  EXPECT_EQ(one.height(), 300);
+}
+
 }  // namespace
 }  // namespace align3d::report

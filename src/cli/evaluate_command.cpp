@@ -24,6 +24,8 @@ struct EvaluateOptions {
   int threads = 0;
 };
 
+constexpr std::size_t kBasinColumns = 3;  // panels a row in the basin figures
+
 constexpr EvalMethod kMethods[] = {EvalMethod::kPointToPoint, EvalMethod::kPointToPlane,
                                    EvalMethod::kGicp,         EvalMethod::kSymmetric,
                                    EvalMethod::kGlobal,       EvalMethod::kAuto};
@@ -177,8 +179,9 @@ int run_evaluate(const EvaluateOptions& o, Streams io) {
       entry["scene"] = scene.name;
       json["basin"].push_back(entry);
     }
+    // Three panels a row: six in one row are too wide to read where the figure is shown.
     report::write_heatmaps(panels, "Convergence basin: " + scene.name,
-                           dir / ("basin_" + scene.name));
+                           dir / ("basin_" + scene.name), kBasinColumns);
   }
   io::write_text_atomically(dir / "evaluation.md", md.str());
   io::write_text_atomically(dir / "evaluation.json", json.dump(2) + "\n");

@@ -84,13 +84,18 @@ struct HeatPrepared {
   double lo = 0, hi = 1;
   bool any_missing = false;  // some cell is non-finite: the colour bar gets a "no data" key
   int width = 0, height = 0;
+  std::size_t columns = 1;       // panels per row
+  std::vector<int> row_heights;  // each row's tallest panel
+  std::size_t rows() const { return row_heights.size(); }
 };
 
-HeatPrepared prepare_heatmaps(const std::vector<HeatMap>& panels, const std::string& title) {
+HeatPrepared prepare_heatmaps(const std::vector<HeatMap>& panels, const std::string& title,
+                              std::size_t columns) {
   if (panels.empty()) throw std::invalid_argument("heat map: no panels to draw");
   HeatPrepared p;
   p.title = title;
-  std::int64_t total_width = 0;
+  p.columns = columns == 0 ? panels.size() : std::min(columns, panels.size());
+  std::int64_t row_width = 0, widest_row = 0, total_height = 0;
   for (std::size_t i = 0; i < panels.size(); ++i) {
     const HeatMap& m = panels[i];
     const std::string where =
@@ -121,19 +126,24 @@ HeatPrepared prepare_heatmaps(const std::vector<HeatMap>& panels, const std::str
                                   "same min_value and max_value as the first panel");
     }
     p.formats.push_back(parse_value_format(m.value_format, where));
-    p.show_y.push_back(i == 0 || m.y_ticks != panels[i - 1].y_ticks ||
+    p.show_y.push_back(i % p.columns == 0 || m.y_ticks != panels[i - 1].y_ticks ||
                        m.y_label != panels[i - 1].y_label);
     if (p.value_label.empty()) p.value_label = m.value_label;
     p.any_missing = p.any_missing || !m.values.allFinite();
     p.panels.push_back(&m);
-    total_width += m.width;
-    p.height = std::max(p.height, m.height);
+    if (i % p.columns == 0) row_width = 0, p.row_heights.push_back(0);
+    row_width += m.width;
+    widest_row = std::max(widest_row, row_width);
+    p.row_heights.back() = std::max(p.row_heights.back(), m.height);
   }
-  if (total_width > kMaxSide) {
-    throw std::invalid_argument("heat maps: the panels' widths add up to " +
-                                std::to_string(total_width) + " pixels, more than 16384");
+  for (const int h : p.row_heights) total_height += h;
+  if (widest_row > kMaxSide || total_height > kMaxSide) {
+    throw std::invalid_argument("heat maps: the panels add up to " + std::to_string(widest_row) +
+                                " x " + std::to_string(total_height) +
+                                " pixels, more than 16384 a side");
   }
-  p.width = static_cast<int>(total_width);
+  p.width = static_cast<int>(widest_row);
+  p.height = static_cast<int>(total_height);
   p.lo = panels[0].min_value;
   p.hi = panels[0].max_value;
   return p;
@@ -143,11 +153,12 @@ struct HeatLayout {
   struct Grid {
     double x0, y0, w, h;  // cell area in pixels (y0 is the top)
     double widest_y_tick;
+    double title_y;  // centre of the panel title's capitals
   };
   std::vector<Grid> grids;
-  double title_y = 0, panel_title_y = 0;  // centres of the titles' capitals
-  double bar_x0 = 0, bar_w = 0;           // colour bar; it spans the grids' height
-  Ticks bar_ticks;                        // positions in values
+  double title_y = 0;            // centre of the figure title's capitals
+  double bar_x0 = 0, bar_w = 0;  // colour bar; it spans the grids' height
+  Ticks bar_ticks;               // positions in values
   double widest_bar_tick = 0;
   double annotation_size = 0;  // font size of the cell values; 0: none
 };
@@ -164,26 +175,28 @@ struct Spacing {
   double label_h;  // a line of the label font, with room for descenders
 };
 
-// Vertical: the title, then the panel titles, above the grids; the same for every panel, so the
-// grids line up. Sets the titles' positions and returns the grids' top.
-double layout_titles(cairo_t* cr, const HeatPrepared& p, const Fonts& fonts, const Spacing& sp,
-                     HeatLayout& L) {
+// Vertical: the figure's title on top; sets its position and returns the height it takes.
+double layout_title(cairo_t* cr, const HeatPrepared& p, const Fonts& fonts, const Spacing& sp,
+                    HeatLayout& L) {
   double top = sp.pad;
   if (!p.title.empty()) {
     set_font(cr, fonts.title);
     L.title_y = top + 0.5 * cap_height(cr);
     top += 1.35 * cap_height(cr) + 1.2 * sp.gap;
   }
+  return top;
+}
+
+// Vertical, in each row: the panel titles above the grids, the same height for every panel so the
+// grids line up. Returns the height they take; `title_y` their centre below the row's top.
+double layout_panel_titles(cairo_t* cr, const HeatPrepared& p, const Fonts& fonts,
+                           const Spacing& sp, double& title_y) {
   const bool panel_titles = std::any_of(p.panels.begin(), p.panels.end(),
                                         [](const HeatMap* m) { return !m->title.empty(); });
-  if (panel_titles) {
-    set_font(cr, panel_title_font(fonts));
-    L.panel_title_y = top + 0.5 * cap_height(cr);
-    top += 1.35 * cap_height(cr) + sp.gap;
-  } else {
-    top += 0.5 * sp.tick_h;  // the colour bar's top label is centred on the bar's top end
-  }
-  return top;
+  if (!panel_titles) return 0.5 * sp.tick_h;  // the colour bar's top label is centred on its end
+  set_font(cr, panel_title_font(fonts));
+  title_y = 0.5 * cap_height(cr);
+  return 1.35 * cap_height(cr) + sp.gap;
 }
 
 // The colour bar's column on the right: bar, ticks and labels, value label; the "no data" key
@@ -208,32 +221,34 @@ double layout_colour_bar(cairo_t* cr, const HeatPrepared& p, const Fonts& fonts,
   return bar_column;
 }
 
-// Horizontal: per panel, its row labels and y label, then its grid; the grids share what is left
-// after the margins and the colour bar's column in proportion to the panels' widths. Sets the
-// grids, from `top`, `grid_h` tall, and the colour bar's left edge.
+// Horizontal, in the row of panels [first, last): per panel, its row labels and y label, then its
+// grid; the grids share what is left after the margins and the colour bar's column (kept free in
+// every row, so that rows of the same panels line up) in proportion to the panels' widths. Adds
+// the grids, from `top`, `grid_h` tall, and sets the colour bar's left edge after the first row.
 void layout_grids(cairo_t* cr, const HeatPrepared& p, const Fonts& fonts, const Spacing& sp,
-                  double top, double grid_h, double bar_column, HeatLayout& L) {
+                  std::size_t first, std::size_t last, double top, double grid_h, double title_y,
+                  double bar_column, HeatLayout& L) {
   set_font(cr, fonts.tick);
   std::vector<double> left(p.panels.size(), 0.0), widest(p.panels.size(), 0.0);
   double fixed = 2 * sp.pad + 2 * sp.pad + bar_column, width_sum = 0;  // margins, gap before bar
-  for (std::size_t i = 0; i < p.panels.size(); ++i) {
+  for (std::size_t i = first; i < last; ++i) {
     const HeatMap& m = *p.panels[i];
     for (const auto& t : m.y_ticks) widest[i] = std::max(widest[i], text_width(cr, t));
     if (p.show_y[i]) {
       left[i] = widest[i] + sp.gap + (m.y_label.empty() ? 0 : sp.label_h + 2 * sp.gap);
     }
-    fixed += left[i] + (i > 0 ? 2 * sp.pad : 0);
+    fixed += left[i] + (i > first ? 2 * sp.pad : 0);
     width_sum += m.width;
   }
   const double available = p.width - fixed;
   double x = sp.pad;
-  for (std::size_t i = 0; i < p.panels.size(); ++i) {
+  for (std::size_t i = first; i < last; ++i) {
     x += left[i];
     const double w = std::max(10.0, available * p.panels[i]->width / width_sum);
-    L.grids.push_back({x, top, w, grid_h, widest[i]});
+    L.grids.push_back({x, top, w, grid_h, widest[i], title_y});
     x += w + 2 * sp.pad;
   }
-  L.bar_x0 = std::round(x);
+  if (first == 0) L.bar_x0 = std::round(x);
 }
 
 // Font size of the cell values: the tick font, shrunk to fit the smallest cell with air around the
@@ -265,8 +280,9 @@ double annotation_size(cairo_t* cr, const HeatPrepared& p, const Fonts& fonts,
   return any && size >= 7 ? size : 0;
 }
 
-// Top to bottom: title, panel titles, grids, column labels, x labels; left to right: per panel its
-// row labels, y label and grid, then the colour bar's column.
+// Top to bottom: title, then per row of panels: panel titles, grids, column labels, x labels (the
+// rows share the height below the title in proportion to their tallest panels); left to right: per
+// panel its row labels, y label and grid, then the colour bar's column (beside the first row).
 HeatLayout layout_heatmaps(cairo_t* cr, const HeatPrepared& p, const Fonts& fonts) {
   HeatLayout L;
   Spacing sp{fonts.tick.size, 0.5 * fonts.tick.size, 0, 0};
@@ -275,14 +291,24 @@ HeatLayout layout_heatmaps(cairo_t* cr, const HeatPrepared& p, const Fonts& font
   set_font(cr, fonts.label);
   sp.label_h = cap_height(cr) * 1.35;
 
-  const double top = layout_titles(cr, p, fonts, sp, L);
+  double top = layout_title(cr, p, fonts, sp, L);
+  double title_y = 0;
+  const double titles = layout_panel_titles(cr, p, fonts, sp, title_y);
   const bool x_labels = std::any_of(p.panels.begin(), p.panels.end(),
                                     [](const HeatMap* m) { return !m->x_label.empty(); });
   const double bottom =
       sp.gap + 1.35 * sp.tick_h + (x_labels ? 2 * sp.gap + sp.label_h : 0) + sp.pad;
-  const double grid_h = std::max(10.0, p.height - top - bottom);
-  const double bar_column = layout_colour_bar(cr, p, fonts, sp, grid_h, L);
-  layout_grids(cr, p, fonts, sp, top, grid_h, bar_column, L);
+  const double per_pixel = (p.height - top) / static_cast<double>(p.height);
+  double bar_column = 0;
+  for (std::size_t r = 0; r < p.rows(); ++r) {
+    const double row_h = per_pixel * p.row_heights[r];
+    const double grid_h = std::max(10.0, row_h - titles - bottom);
+    if (r == 0) bar_column = layout_colour_bar(cr, p, fonts, sp, grid_h, L);
+    const std::size_t first = r * p.columns;
+    layout_grids(cr, p, fonts, sp, first, std::min(first + p.columns, p.panels.size()),
+                 top + titles, grid_h, top + title_y, bar_column, L);
+    top += row_h;
+  }
   L.annotation_size = annotation_size(cr, p, fonts, L.grids);
   return L;
 }
@@ -370,7 +396,7 @@ void draw_cell_values(cairo_t* cr, const HeatMap& m, ValueFormat format, const C
 // Column and row labels centred on the cells, thinned out when they would touch; the axis labels
 // and the panel's title.
 void draw_panel_labels(cairo_t* cr, const HeatMap& m, bool show_y, const Cells& cells,
-                       const HeatLayout& L, const Fonts& fonts) {
+                       const Fonts& fonts) {
   const HeatLayout::Grid& g = cells.g;
   const double gap = 0.5 * fonts.tick.size;
   set_font(cr, fonts.tick);
@@ -405,7 +431,7 @@ void draw_panel_labels(cairo_t* cr, const HeatMap& m, bool show_y, const Cells& 
   if (!m.title.empty()) {
     set_font(cr, panel_title_font(fonts));
     cairo_set_source_rgb(cr, 0, 0, 0);
-    draw_text(cr, m.title, g.x0 + 0.5 * g.w, L.panel_title_y, 0.5);
+    draw_text(cr, m.title, g.x0 + 0.5 * g.w, g.title_y, 0.5);
   }
 }
 
@@ -417,7 +443,7 @@ void draw_heat_panel(cairo_t* cr, const HeatMap& m, ValueFormat format, bool sho
   if (m.annotate && L.annotation_size > 0) {
     draw_cell_values(cr, m, format, cells, L.annotation_size, lo, hi);
   }
-  draw_panel_labels(cr, m, show_y, cells, L, fonts);
+  draw_panel_labels(cr, m, show_y, cells, fonts);
 }
 
 // The colour bar: the map as a vertical gradient from lo (bottom) to hi, outward ticks and labels
@@ -472,7 +498,8 @@ void draw_heatmaps(cairo_t* cr, const HeatPrepared& p) {
   begin_page(cr);
   // Text sized for one panel, as if it were a figure of its own, but no smaller than a 900 x 600
   // plot's: a heat map is read at a glance, and its cells carry text too.
-  const Fonts fonts = fonts_for(static_cast<double>(p.width) / p.panels.size(), p.height, 1.0);
+  const Fonts fonts = fonts_for(static_cast<double>(p.width) / static_cast<double>(p.columns),
+                                static_cast<double>(p.height) / static_cast<double>(p.rows()), 1.0);
   const HeatLayout L = layout_heatmaps(cr, p, fonts);
   for (std::size_t i = 0; i < p.panels.size(); ++i) {
     draw_heat_panel(cr, *p.panels[i], p.formats[i], p.show_y[i], L.grids[i], L, fonts, p.lo, p.hi);
@@ -481,8 +508,9 @@ void draw_heatmaps(cairo_t* cr, const HeatPrepared& p) {
   if (!p.title.empty()) {
     set_font(cr, fonts.title);
     cairo_set_source_rgb(cr, 0, 0, 0);
-    // Centred over the grids, but kept inside the image.
-    const double cx = 0.5 * (L.grids.front().x0 + L.grids.back().x0 + L.grids.back().w);
+    // Centred over the first row's grids, but kept inside the image.
+    const HeatLayout::Grid& last = L.grids[p.columns - 1];
+    const double cx = 0.5 * (L.grids.front().x0 + last.x0 + last.w);
     const double half = 0.5 * text_width(cr, p.title), margin = fonts.tick.size;
     draw_text(cr, p.title, std::max(std::min(cx, p.width - margin - half), margin + half),
               L.title_y, 0.5);
@@ -500,8 +528,8 @@ void write_heatmap(const HeatMap& map, const std::filesystem::path& stem) {
 }
 
 void write_heatmaps(const std::vector<HeatMap>& panels, const std::string& title,
-                    const std::filesystem::path& stem) {
-  const detail::HeatPrepared prepared = detail::prepare_heatmaps(panels, title);
+                    const std::filesystem::path& stem, std::size_t columns) {
+  const detail::HeatPrepared prepared = detail::prepare_heatmaps(panels, title, columns);
   detail::write_svg_and_png(stem, prepared.width, prepared.height,
                             [&](cairo_t* cr) { detail::draw_heatmaps(cr, prepared); });
 }

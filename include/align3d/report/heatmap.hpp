@@ -1,8 +1,9 @@
-// Heat maps drawn with cairo: one, or several side by side with a shared colour bar, written as SVG
+// Heat maps drawn with cairo: one, or several in rows with a shared colour bar, written as SVG
 // and PNG. Used for the convergence basin of `align3d evaluate`.
 #pragma once
 
 #include <Eigen/Core>
+#include <cstddef>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -38,14 +39,16 @@ struct HeatMap {
 // written.
 void write_heatmap(const HeatMap& map, const std::filesystem::path& stem);
 
-// Several heat maps side by side in one image, under one `title` (may be empty), with one colour
-// bar on the right; each panel's `title` names it. The image is the sum of the panels' widths wide
-// and their largest height tall; each panel's grid gets width in proportion to its `width`. All
-// panels must share min_value and max_value; the colour bar takes the first non-empty value_label
-// and the first panel's value_format. A panel whose row labels and y label repeat those of the
-// panel on its left does not print them again. Throws as write_heatmap, and std::invalid_argument
-// for no panels, ranges that differ between panels or a total width above 16384.
+// Several heat maps in one image, side by side in rows of `columns` panels (0: all in one row),
+// under one `title` (may be empty), with one colour bar right of the first row; each panel's
+// `title` names it. The image is as wide as its widest row (the sum of that row's panels' widths)
+// and as tall as the rows' tallest panels together; each panel's grid gets width in proportion to
+// its `width`. All panels must share min_value and max_value; the colour bar takes the first
+// non-empty value_label and the first panel's value_format. A panel whose row labels and y label
+// repeat those of the panel on its left does not print them again. Throws as write_heatmap, and
+// std::invalid_argument for no panels, ranges that differ between panels or an image wider or
+// taller than 16384.
 void write_heatmaps(const std::vector<HeatMap>& panels, const std::string& title,
-                    const std::filesystem::path& stem);
+                    const std::filesystem::path& stem, std::size_t columns = 0);
 
 }  // namespace align3d::report
