@@ -205,7 +205,8 @@ Command add_evaluate(CLI::App& app, Streams io) {
       "two range scans of an animal 70° apart (61 % overlap, 5 % outliers): success rates of "
       "ICP alone (point-to-point, point-to-plane, GICP, symmetric), of global + ICP and of the "
       "default (init auto), and the convergence basin of each (heat maps, one figure per scene).\n"
-      "The full run takes several minutes (progress on a terminal); --quick is a smoke test.");
+      "The full run takes about half an hour on 2 cores (progress on a terminal); --quick is a "
+      "smoke test.");
   sub->add_option("OUTDIR", o->outdir, "Output directory")->capture_default_str();
   sub->add_option("--trials", o->trials, "Random poses per scene and method")
       ->check(CLI::Range(1, 100000))

@@ -120,7 +120,7 @@ struct Pass {
   // memory was made is still beyond the reach while the drift is below the reach, so no pair is
   // lost; and each search starts bounded by the remembered partner's distance (the same nearest,
   // found sooner). The same pairs as searching every sampled point afresh; measured (2026-11-28,
-  // 2 threads, the same poses to 1e-9): 42 % of the searches left out on bracket_ring, the
+  // 2 threads, the same poses to 1e-12): 42 % of the searches left out on bracket_ring, the
   // multi-view stage 3-13 % faster on the generated rings.
   LinkSums link(std::size_t a, std::size_t b, LinkMemory& m) const {
     if (!m.valid || drift(m, a, b) >= settings.max_distance) m = remember(a, b);
@@ -246,6 +246,10 @@ MultiviewResult multiview_icp(const std::vector<MultiviewScan>& scans,
     Eigen::Isometry3d pa, pb;
     bool valid = false;
   };
+  // Directed link l: link l / 2 one way (even l) or the other.
+  auto directed = [&](std::size_t l) {
+    return l % 2 ? std::pair{links[l / 2].second, links[l / 2].first} : links[l / 2];
+  };
   std::vector<Cached> cache(2 * links.size());
   std::vector<LinkMemory> memory(2 * links.size());
   std::vector<std::vector<double>> steps(n);  // of each scan, every iteration
@@ -254,7 +258,7 @@ MultiviewResult multiview_icp(const std::vector<MultiviewScan>& scans,
     Eigen::MatrixXd H = Eigen::MatrixXd::Zero(6 * n, 6 * n);
     Eigen::VectorXd g = Eigen::VectorXd::Zero(6 * n);
     for (std::size_t l = 0; l < 2 * links.size(); ++l) {
-      const auto [a, b] = l % 2 ? std::pair{links[l / 2].second, links[l / 2].first} : links[l / 2];
+      const auto [a, b] = directed(l);
       Cached& c = cache[l];
       if (!c.valid || moved(c.pa, poses[a]) >= settings.tolerance ||
           moved(c.pb, poses[b]) >= settings.tolerance)
@@ -293,7 +297,7 @@ MultiviewResult multiview_icp(const std::vector<MultiviewScan>& scans,
   out.residuals.assign(n, {});
   const Pass last{scans, poses, centre, settings, true};
   for (std::size_t l = 0; l < 2 * links.size(); ++l) {
-    const auto [a, b] = l % 2 ? std::pair{links[l / 2].second, links[l / 2].first} : links[l / 2];
+    const auto [a, b] = directed(l);
     const LinkSums s = last.link(a, b, memory[l]);
     auto& d = out.residuals[a].distances;
     d.insert(d.end(), s.distances.begin(), s.distances.end());
