@@ -113,9 +113,9 @@ def evaluate(
     ``basin_<scene>.svg``/``.png`` into ``outdir`` and returns ``evaluation.json`` as a dict
     (``success``: one row per scene and method; ``basin``: one grid per scene and method, with its
     ``scene``; ``scenes``: each scene's files, written into ``outdir/scenes/<name>/``:
-    ``source.ply``, ``target.ply`` and ``truth.txt``, target ≈ T·source). The full run takes about
-    half an hour on 2 cores; ``quick=True`` (3 trials, a 2×2 basin) checks the machinery in seconds;
-    ``scenes_only=True`` writes the scenes and measures nothing."""
+    ``source.ply``, ``target.ply`` and ``truth.txt``, target ≈ T·source). The full run takes
+    about half an hour on 2 cores; ``quick=True`` (3 trials, a 2×2 basin) checks the machinery in
+    seconds; ``scenes_only=True`` writes the scenes and measures nothing."""
     run("evaluate", [outdir],
         dict(trials=trials, cell_trials=cell_trials, seed=seed, threads=threads),
         dict(quick=quick, scenes_only=scenes_only, quiet=True))
