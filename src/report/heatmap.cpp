@@ -157,7 +157,7 @@ struct HeatLayout {
   };
   std::vector<Grid> grids;
   double title_y = 0;            // centre of the figure title's capitals
-  double bar_x0 = 0, bar_w = 0;  // colour bar; it spans the grids' height
+  double bar_x0 = 0, bar_w = 0;  // colour bar; it spans the first row's grids
   Ticks bar_ticks;               // positions in values
   double widest_bar_tick = 0;
   double annotation_size = 0;  // font size of the cell values; 0: none
