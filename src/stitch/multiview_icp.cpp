@@ -91,21 +91,23 @@ struct Pass {
     LinkMemory m;
     m.valid = true;
     m.a_in_b = a_in_b(a, b);
-    std::vector<std::uint32_t> partner(sa.sample.size(), kNone);
-    parallel_for(sa.sample.size(), settings.threads, [&](std::size_t i) {
+    const std::size_t n = sa.sample.size();
+    std::vector<Eigen::Vector3d> in_b(n);
+    std::vector<std::uint32_t> partner(n, kNone);
+    parallel_for(n, settings.threads, [&](std::size_t i) {
+      in_b[i] = m.a_in_b * sa.cloud->positions[sa.sample[i]];
       Neighbor nb;
-      if (scans[b].tree->nearest(m.a_in_b * sa.cloud->positions[sa.sample[i]], nb, sq_wide))
+      if (scans[b].tree->nearest(in_b[i], nb, sq_wide))
         partner[i] = static_cast<std::uint32_t>(nb.index);
     });
     Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-    for (std::size_t i = 0; i < partner.size(); ++i) {
-      sum += m.a_in_b * sa.cloud->positions[sa.sample[i]];
+    for (std::size_t i = 0; i < n; ++i) {
+      sum += in_b[i];
       if (partner[i] != kNone)
         m.points.push_back(static_cast<std::uint32_t>(i)), m.partners.push_back(partner[i]);
     }
-    if (!partner.empty()) m.centre = sum / static_cast<double>(partner.size());
-    for (const std::uint32_t i : sa.sample)
-      m.radius = std::max(m.radius, (m.a_in_b * sa.cloud->positions[i] - m.centre).norm());
+    if (n > 0) m.centre = sum / static_cast<double>(n);
+    for (const Eigen::Vector3d& y : in_b) m.radius = std::max(m.radius, (y - m.centre).norm());
     return m;
   }
 
