@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "align3d/error.hpp"
+#include "align3d/evaluate.hpp"
 #include "align3d/io/matrix_io.hpp"
 #include "align3d/io/mesh_io.hpp"
 #include "align3d/io/point_cloud_io.hpp"
@@ -440,6 +441,54 @@ TEST(CliEvaluate, ScenesOnlyWritesEachSceneWithItsTruth) {
   const Eigen::Isometry3d synth_truth = io::read_matrix(chapter / "ground_truth.txt");
   const Eigen::Isometry3d written = io::read_matrix(d / "scenes/chapter/truth.txt");
   EXPECT_TRUE(written.matrix().isApprox(synth_truth.matrix(), 1e-12));
+}
+
+// --scenes: a built-in scene by name (only its files are written), and a directory of one's own in
+// --scenes-only's layout (the chapter's files, moved): only it is measured, and from the truth (the
+// basin's 0°, 0 shift cell) the default registers it. Bad names and files get their exit codes.
+TEST(CliEvaluate, ScenesPicksBuiltInOnesAndDirectoriesOfYourOwn) {
+  test::TempDir d("evaluate_pick");
+  ASSERT_EQ(run({"evaluate", (d / "files").string(), "--scenes-only", "--scenes", "chapter"}).code,
+            0);
+  const auto written = nlohmann::json::parse(read_text(d / "files/evaluation.json"));
+  ASSERT_EQ(written["scenes"].size(), 1u);
+  EXPECT_EQ(written["scenes"][0]["name"], "chapter");
+  const std::filesystem::path mine = d / "mine";
+  std::filesystem::rename(d / "files/scenes/chapter", mine);
+  const CliRun r = run({"evaluate", (d / "eval").string(), "--quick", "--scenes", mine.string()});
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto j = nlohmann::json::parse(read_text(d / "eval/evaluation.json"));
+  ASSERT_EQ(j["success"].size(), 6u);  // 1 scene × 6 methods
+  for (const auto& row : j["success"]) EXPECT_EQ(row["scene"], "mine");
+  EXPECT_TRUE(std::filesystem::exists(d / "eval/basin_mine.png"));
+  EXPECT_FALSE(std::filesystem::exists(d / "eval/basin_chapter.png"));
+  const auto& cell = j["basin"][5];  // the default
+  ASSERT_EQ(cell["method"], to_string(EvalMethod::kAuto));
+  ASSERT_EQ(cell["angles_deg"][0].get<double>(), 0.0);
+  ASSERT_EQ(cell["translation_fractions"][0].get<double>(), 0.0);
+  EXPECT_EQ(cell["success"][0][0].get<double>(), 1.0);
+
+  const CliRun unknown = run({"evaluate", (d / "x").string(), "--quick", "--scenes", "sphere"});
+  EXPECT_EQ(unknown.code, code(ExitCode::kUsage));
+  EXPECT_NE(unknown.err.find("'sphere'"), std::string::npos) << unknown.err;
+  const CliRun twice =
+      run({"evaluate", (d / "x").string(), "--quick", "--scenes", "chapter,chapter"});
+  EXPECT_EQ(twice.code, code(ExitCode::kUsage));
+  test::write_text(mine / "truth.txt", "1 0 0 0\n0 1 0\n");
+  const CliRun truncated =
+      run({"evaluate", (d / "x").string(), "--quick", "--scenes", mine.string()});
+  EXPECT_EQ(truncated.code, code(ExitCode::kInput));
+  EXPECT_NE(truncated.err.find("truth.txt"), std::string::npos) << truncated.err;
+  std::filesystem::remove(mine / "target.ply");
+  const CliRun missing =
+      run({"evaluate", (d / "x").string(), "--quick", "--scenes", mine.string()});
+  EXPECT_EQ(missing.code, code(ExitCode::kInput));
+  EXPECT_NE(missing.err.find("no target.<ext>"), std::string::npos) << missing.err;
+  test::write_text(mine / "target.xyz", "0 0 0\n1 1 1\n");
+  const CliRun tiny = run({"evaluate", (d / "x").string(), "--quick", "--scenes", mine.string()});
+  EXPECT_EQ(tiny.code, code(ExitCode::kData));
+  EXPECT_NE(tiny.err.find("target.xyz (target)"), std::string::npos) << tiny.err;
+  EXPECT_FALSE(std::filesystem::exists(d / "x"));  // nothing written
 }
 
 // ---- convert ----

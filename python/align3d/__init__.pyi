@@ -281,6 +281,7 @@ def evaluate(
     seed: Optional[int] = ...,
     quick: bool = ...,
     scenes_only: bool = ...,
+    scenes: Optional[Sequence[PathLike]] = ...,
     threads: Optional[int] = ...,
 ) -> Dict[str, Any]: ...
 def demo(

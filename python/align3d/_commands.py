@@ -8,7 +8,7 @@ import json
 import os
 import warnings
 from pathlib import Path
-from typing import Any, Dict, List, Optional
+from typing import Any, Dict, List, Optional, Sequence
 
 from . import _core
 from ._cloud import PathLike
@@ -104,6 +104,7 @@ def evaluate(
     seed: Optional[int] = None,
     quick: bool = False,
     scenes_only: bool = False,
+    scenes: Optional[Sequence[PathLike]] = None,
     threads: Optional[int] = None,
 ) -> Dict[str, Any]:
     """Measures registration from random starting poses (``align3d evaluate``): success rates of
@@ -115,9 +116,17 @@ def evaluate(
     ``scene``; ``scenes``: each scene's files, written into ``outdir/scenes/<name>/``:
     ``source.ply``, ``target.ply`` and ``truth.txt``, target ≈ T·source). The full run takes
     about half an hour on 2 cores; ``quick=True`` (3 trials, a 2×2 basin) checks the machinery in
-    seconds; ``scenes_only=True`` writes the scenes and measures nothing."""
+    seconds; ``scenes_only=True`` writes the scenes and measures nothing. ``scenes`` picks which:
+    built-in names (``"chapter"``, ``"bracket"``, ``"bumpy-sphere"``, ``"animal"``) or directories
+    of your own, each holding ``source.*`` and ``target.*`` (clouds) and ``truth.txt`` (4×4,
+    target ≈ T·source), named after the directory (paths without commas)."""
+    chosen = None
+    if scenes is not None:
+        if isinstance(scenes, (str, os.PathLike)):
+            raise TypeError("scenes: expected a list of names or directories, got one string")
+        chosen = ",".join(os.fspath(each) for each in scenes)
     run("evaluate", [outdir],
-        dict(trials=trials, cell_trials=cell_trials, seed=seed, threads=threads),
+        dict(trials=trials, cell_trials=cell_trials, seed=seed, scenes=chosen, threads=threads),
         dict(quick=quick, scenes_only=scenes_only, quiet=True))
     return _json(Path(outdir) / "evaluation.json")
 

@@ -94,6 +94,28 @@ def test_evaluate_quick(tmp_path):
         assert (tmp_path / "eval" / f"basin_{scene}.png").is_file()
 
 
+def test_evaluate_on_a_scene_directory_of_ones_own(tmp_path):
+    # The bracket's files as a user's directory: the default registers it from the truth (the
+    # basin's 0°, 0 shift cell) and nothing else is measured.
+    written = align3d.evaluate(tmp_path / "files", scenes=["bracket"], scenes_only=True)
+    assert [scene["name"] for scene in written["scenes"]] == ["bracket"]
+    mine = tmp_path / "my part"
+    (tmp_path / "files" / "scenes" / "bracket").rename(mine)
+    report = align3d.evaluate(tmp_path / "eval", scenes=[mine], quick=True, threads=2)
+    assert {row["scene"] for row in report["success"]} == {"my part"}
+    cell = next(b for b in report["basin"] if b["method"] == "align3d default (init auto)")
+    assert cell["angles_deg"][0] == 0 and cell["translation_fractions"][0] == 0
+    assert cell["success"][0][0] == 1
+    assert (tmp_path / "eval" / "basin_my part.png").is_file()
+    with pytest.raises(align3d.SettingsError, match=r"--scenes: .*'sphere'"):
+        align3d.evaluate(tmp_path / "eval", scenes=["sphere"], quick=True)
+    with pytest.raises(TypeError):
+        align3d.evaluate(tmp_path / "eval", scenes="chapter", quick=True)
+    (mine / "truth.txt").unlink()
+    with pytest.raises(align3d.FileError, match=r"truth.txt"):
+        align3d.evaluate(tmp_path / "eval", scenes=[mine], quick=True)
+
+
 def test_demo_reproduces_the_chapter(tmp_path):
     results = align3d.demo(tmp_path / "demo")
     assert (tmp_path / "demo" / "report.html").is_file()

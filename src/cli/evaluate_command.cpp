@@ -3,7 +3,9 @@
 #include <chrono>
 #include <iomanip>
 #include <sstream>
+#include <tuple>
 
+#include "align3d/cloud_stats.hpp"
 #include "align3d/error.hpp"
 #include "align3d/evaluate.hpp"
 #include "align3d/io/atomic_file.hpp"
@@ -22,6 +24,7 @@ struct EvaluateOptions {
   std::uint64_t seed = 1;
   bool quick = false, quiet = false, scenes_only = false;
   int threads = 0;
+  std::vector<std::string> scenes;  // built-in names or scene directories; empty: the four
 };
 
 constexpr std::size_t kBasinColumns = 3;  // panels a row in the basin figures
@@ -111,6 +114,63 @@ nlohmann::json basin_json(EvalMethod method, const Basin& b) {
           {"success", rows}};
 }
 
+// The one file in `dir` named `stem` with any extension (source.ply, target.pcd, ...).
+std::filesystem::path scene_file(const std::filesystem::path& dir, const std::string& stem) {
+  std::vector<std::filesystem::path> found;
+  std::error_code ec;
+  for (const auto& entry : std::filesystem::directory_iterator(dir, ec))
+    if (entry.path().stem() == stem && entry.path().has_extension()) found.push_back(entry.path());
+  if (ec) throw IoError(dir, "cannot list the scene directory: " + ec.message());
+  if (found.size() != 1)
+    throw IoError(dir, (found.empty() ? "no " : "more than one ") + stem +
+                           ".<ext> in the scene directory (expected source.*, target.* and "
+                           "truth.txt)");
+  return found[0];
+}
+
+// A scene of the user's: a directory with source.*, target.* (clouds) and truth.txt (target ≈
+// T·source), the layout --scenes-only writes; named after the directory.
+EvalScene scene_from_directory(const std::filesystem::path& dir, std::ostream& err) {
+  EvalScene scene;
+  const std::filesystem::path full = std::filesystem::absolute(dir).lexically_normal();
+  scene.name = (full.has_filename() ? full : full.parent_path()).filename().string();
+  const std::filesystem::path source = scene_file(dir, "source");
+  const std::filesystem::path target = scene_file(dir, "target");
+  scene.source = load_cloud(source, err);
+  scene.target = load_cloud(target, err);
+  for (const auto& [cloud, path, role] : {std::tuple{&scene.source, &source, "source"},
+                                          std::tuple{&scene.target, &target, "target"}}) {
+    try {
+      check_registrable(*cloud, role);
+    } catch (const DataError& e) {
+      throw DataError(path->string() + " (" + role + ")", e.problem());
+    }
+  }
+  scene.T_target_source = io::read_matrix(dir / "truth.txt");
+  return scene;
+}
+
+// --scenes: each a built-in scene's name or a scene directory; none: the four built-in ones.
+std::vector<EvalScene> chosen_scenes(const EvaluateOptions& o, std::ostream& err) {
+  if (o.scenes.empty()) return evaluation_scenes();
+  std::vector<EvalScene> scenes;
+  for (const std::string& item : o.scenes) {
+    if (std::filesystem::is_directory(item)) {
+      scenes.push_back(scene_from_directory(item, err));
+    } else {
+      try {
+        scenes.push_back(evaluation_scene(item));
+      } catch (const std::invalid_argument& e) {
+        throw UsageError(std::string("--scenes: ") + e.what() + ", or a scene directory");
+      }
+    }
+    for (std::size_t i = 0; i + 1 < scenes.size(); ++i)
+      if (scenes[i].name == scenes.back().name)
+        throw UsageError("--scenes: two scenes named '" + scenes.back().name + "'");
+  }
+  return scenes;
+}
+
 // Every scene as files (OUTDIR/scenes/<name>/{source.ply,target.ply,truth.txt}), so that a peer
 // (bench/compare_basin.py) can run on the same data; listed under "scenes" in the JSON.
 nlohmann::json write_scenes(const std::filesystem::path& dir,
@@ -142,11 +202,10 @@ int run_evaluate(const EvaluateOptions& o, Streams io) {
                                          : std::vector<double>{0, 10, 20, 30, 45, 60, 90, 135, 180};
   const std::vector<double> shifts =
       o.quick ? std::vector<double>{0, 0.25} : std::vector<double>{0, 0.05, 0.1, 0.2, 0.35, 0.5};
+  const std::vector<EvalScene> scenes = chosen_scenes(o, io.err);  // before anything is written
   std::error_code ec;
   std::filesystem::create_directories(o.outdir, ec);
   if (ec) throw OutputError(o.outdir, "cannot create directory: " + ec.message());
-
-  const auto scenes = evaluation_scenes();
   const std::filesystem::path dir(o.outdir);
   nlohmann::json json = {{"scenes", write_scenes(dir, scenes)}};
   if (o.scenes_only) {
@@ -204,7 +263,8 @@ Command add_evaluate(CLI::App& app, Streams io) {
       "against their whole surface (a bracket, a bumpy sphere; 60 % overlap, 5 % outliers) and "
       "two range scans of an animal 70° apart (61 % overlap, 5 % outliers): success rates of "
       "ICP alone (point-to-point, point-to-plane, GICP, symmetric), of global + ICP and of the "
-      "default (init auto), and the convergence basin of each (heat maps, one figure per scene).\n"
+      "default (init auto), and the convergence basin of each (heat maps, one figure per scene); "
+      "or on the scenes --scenes names, your own among them.\n"
       "The full run takes about half an hour on 2 cores (progress on a terminal); --quick is a "
       "smoke test.");
   sub->add_option("OUTDIR", o->outdir, "Output directory")->capture_default_str();
@@ -217,6 +277,12 @@ Command add_evaluate(CLI::App& app, Streams io) {
   sub->add_option("--seed", o->seed, "Seed of the random poses")
       ->check(CLI::NonNegativeNumber)  // CLI11 would wrap -1 to 2^64 - 1
       ->capture_default_str();
+  sub->add_option("--scenes", o->scenes,
+                  "Comma-separated scenes to run (default: all four): chapter, bracket, "
+                  "bumpy-sphere, animal, or a directory of your own holding source.* and target.* "
+                  "(clouds) and truth.txt (4x4, target ≈ T·source; the layout --scenes-only "
+                  "writes), named after the directory")
+      ->delimiter(',');
   sub->add_flag("--quick", o->quick, "3 trials and a 2×2 basin: checks the machinery only");
   sub->add_flag("--scenes-only", o->scenes_only,
                 "Only write the scenes (OUTDIR/scenes/<name>/source.ply, target.ply and truth.txt: "
