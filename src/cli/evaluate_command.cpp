@@ -150,19 +150,18 @@ EvalScene scene_from_directory(const std::filesystem::path& dir, std::ostream& e
   return scene;
 }
 
-// --scenes: each a built-in scene's name or a scene directory; none: the four built-in ones.
+// --scenes: each a built-in scene's name or else a scene directory (./chapter for a directory of
+// that name); none: the four built-in ones.
 std::vector<EvalScene> chosen_scenes(const EvaluateOptions& o, std::ostream& err) {
   if (o.scenes.empty()) return evaluation_scenes();
   std::vector<EvalScene> scenes;
   for (const std::string& item : o.scenes) {
-    if (std::filesystem::is_directory(item)) {
-      scenes.push_back(scene_from_directory(item, err));
-    } else {
-      try {
-        scenes.push_back(evaluation_scene(item));
-      } catch (const std::invalid_argument& e) {
+    try {
+      scenes.push_back(evaluation_scene(item));
+    } catch (const std::invalid_argument& e) {
+      if (!std::filesystem::is_directory(item))
         throw UsageError(std::string("--scenes: ") + e.what() + ", or a scene directory");
-      }
+      scenes.push_back(scene_from_directory(item, err));
     }
     for (std::size_t i = 0; i + 1 < scenes.size(); ++i)
       if (scenes[i].name == scenes.back().name)
@@ -281,7 +280,7 @@ Command add_evaluate(CLI::App& app, Streams io) {
                   "Comma-separated scenes to run (default: all four): chapter, bracket, "
                   "bumpy-sphere, animal, or a directory of your own holding source.* and target.* "
                   "(clouds) and truth.txt (4x4, target ≈ T·source; the layout --scenes-only "
-                  "writes), named after the directory")
+                  "writes), named after the directory (./chapter for a directory called chapter)")
       ->delimiter(',');
   sub->add_flag("--quick", o->quick, "3 trials and a 2×2 basin: checks the machinery only");
   sub->add_flag("--scenes-only", o->scenes_only,
