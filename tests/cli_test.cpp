@@ -474,6 +474,11 @@ TEST(CliEvaluate, ScenesPicksBuiltInOnesAndDirectoriesOfYourOwn) {
   const CliRun twice =
       run({"evaluate", (d / "x").string(), "--quick", "--scenes", "chapter,chapter"});
   EXPECT_EQ(twice.code, code(ExitCode::kUsage));
+  const CliRun empty = run({"evaluate", (d / "x").string(), "--quick", "--scenes", "chapter,"});
+  EXPECT_EQ(empty.code, code(ExitCode::kUsage));
+  // One value: OUTDIR after it is not taken for a scene.
+  ASSERT_EQ(run({"evaluate", "--scenes", "chapter", (d / "y").string(), "--scenes-only"}).code, 0);
+  EXPECT_TRUE(std::filesystem::exists(d / "y/scenes/chapter/truth.txt"));
   test::write_text(mine / "truth.txt", "1 0 0 0\n0 1 0\n");
   const CliRun truncated =
       run({"evaluate", (d / "x").string(), "--quick", "--scenes", mine.string()});

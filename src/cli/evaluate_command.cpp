@@ -24,7 +24,7 @@ struct EvaluateOptions {
   std::uint64_t seed = 1;
   bool quick = false, quiet = false, scenes_only = false;
   int threads = 0;
-  std::vector<std::string> scenes;  // built-in names or scene directories; empty: the four
+  std::string scenes;  // comma-separated built-in names or scene directories; empty: the four
 };
 
 constexpr std::size_t kBasinColumns = 3;  // panels a row in the basin figures
@@ -155,7 +155,11 @@ EvalScene scene_from_directory(const std::filesystem::path& dir, std::ostream& e
 std::vector<EvalScene> chosen_scenes(const EvaluateOptions& o, std::ostream& err) {
   if (o.scenes.empty()) return evaluation_scenes();
   std::vector<EvalScene> scenes;
-  for (const std::string& item : o.scenes) {
+  for (std::size_t begin = 0; begin <= o.scenes.size();) {
+    const std::size_t end = std::min(o.scenes.find(',', begin), o.scenes.size());
+    const std::string item = o.scenes.substr(begin, end - begin);
+    begin = end + 1;
+    if (item.empty()) throw UsageError("--scenes: an empty name in '" + o.scenes + "'");
     try {
       scenes.push_back(evaluation_scene(item));
     } catch (const std::invalid_argument& e) {
@@ -280,8 +284,7 @@ Command add_evaluate(CLI::App& app, Streams io) {
                   "Comma-separated scenes to run (default: all four): chapter, bracket, "
                   "bumpy-sphere, animal, or a directory of your own holding source.* and target.* "
                   "(clouds) and truth.txt (4x4, target ≈ T·source; the layout --scenes-only "
-                  "writes), named after the directory (./chapter for a directory called chapter)")
-      ->delimiter(',');
+                  "writes), named after the directory (./chapter for a directory called chapter)");
   sub->add_flag("--quick", o->quick, "3 trials and a 2×2 basin: checks the machinery only");
   sub->add_flag("--scenes-only", o->scenes_only,
                 "Only write the scenes (OUTDIR/scenes/<name>/source.ply, target.ply and truth.txt: "
