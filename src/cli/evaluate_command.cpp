@@ -3,7 +3,6 @@
 #include <chrono>
 #include <iomanip>
 #include <sstream>
-#include <tuple>
 
 #include "align3d/cloud_stats.hpp"
 #include "align3d/error.hpp"
@@ -134,18 +133,18 @@ EvalScene scene_from_directory(const std::filesystem::path& dir, std::ostream& e
   EvalScene scene;
   const std::filesystem::path full = std::filesystem::absolute(dir).lexically_normal();
   scene.name = (full.has_filename() ? full : full.parent_path()).filename().string();
-  const std::filesystem::path source = scene_file(dir, "source");
-  const std::filesystem::path target = scene_file(dir, "target");
-  scene.source = load_cloud(source, err);
-  scene.target = load_cloud(target, err);
-  for (const auto& [cloud, path, role] : {std::tuple{&scene.source, &source, "source"},
-                                          std::tuple{&scene.target, &target, "target"}}) {
+  auto load = [&](const std::string& role) {  // source.* or target.*, checked registrable
+    const std::filesystem::path path = scene_file(dir, role);
+    PointCloud cloud = load_cloud(path, err);
     try {
-      check_registrable(*cloud, role);
+      check_registrable(cloud, role);
     } catch (const DataError& e) {
-      throw DataError(path->string() + " (" + role + ")", e.problem());
+      throw DataError(path.string() + " (" + role + ")", e.problem());
     }
-  }
+    return cloud;
+  };
+  scene.source = load("source");
+  scene.target = load("target");
   scene.T_target_source = io::read_matrix(dir / "truth.txt");
   return scene;
 }
