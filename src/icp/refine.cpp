@@ -21,6 +21,10 @@ constexpr double kKernelFraction = 0.5;       // Geman-McClure scale = τ/2
 constexpr double kFinalSpacings = 3.0;        // final τ >= 3 s
 constexpr double kFinalSigmas = 4.0;          // final τ >= 4 σ̂
 constexpr int kCoarseIterations = 30;
+// The final stage's reciprocity (icp.hpp): a pair longer than half a point spacing enters only when
+// it is the shortest pair of its target point (refine.hpp, step 4).
+constexpr double kFinalReciprocity = 1.0;
+constexpr double kReciprocityFloorSpacings = 0.5;
 constexpr int kMaxStages = 12;  // L/8 · 2^-12 is far below any useful spacing
 // Coarse-to-fine in resolution too: the coarse stages see at most this many source points (every
 // m-th along the Morton curve, an even thinning), the final stage all of them.
@@ -349,6 +353,10 @@ void refine_schedule(const PointCloud& source, RefineTarget& target, const Eigen
   double tau = std::max(floor, kFinalSigmas * sigma);
   if (target.surface()) tau = noise_stages(coarse_source, *target.surface(), tau, coarse, T, run);
   last.rejection = RejectionRule::max_distance(tau);
+  if (!target.surface()) {
+    last.reciprocity = kFinalReciprocity;
+    last.reciprocity_floor = kReciprocityFloorSpacings * spacing;
+  }
   if (!settings.kernel) {
     last.kernel = RobustKernel::kGemanMcClure;
     last.kernel_scale = kKernelFraction * tau;

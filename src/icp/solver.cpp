@@ -35,10 +35,12 @@ struct PairTotals {
   Sums sums;
   double sq_error = 0;
   std::size_t kept = 0;
+  std::size_t aside = 0;  // of the kept, those set aside (Correspondences::aside)
 };
 
 // Folds every kept pair (within the threshold, and compatible for `method`) into Sums:
-// `add(sums, pair)` returns the pair's squared residual.
+// `add(sums, pair)` returns the pair's squared residual. A pair set aside counts in the squared
+// error and the kept pairs only (added to sums thrown away).
 template <class Sums, class Add>
 PairTotals<Sums> reduce_pairs(const StepInput& in, IcpMethod method, int threads, Add add) {
   const Correspondences& c = in.pairs;
@@ -61,13 +63,20 @@ PairTotals<Sums> reduce_pairs(const StepInput& in, IcpMethod method, int threads
         pair.distance = c.distance[i];
         pair.partner = surface ? i : j;
         if (!compatible(method, pair)) return;
-        a.sq_error += add(a.sums, pair);
         ++a.kept;
+        if (!c.aside.empty() && c.aside[i]) {
+          Sums unused;
+          a.sq_error += add(unused, pair);
+          ++a.aside;
+          return;
+        }
+        a.sq_error += add(a.sums, pair);
       },
       [](PairTotals<Sums>& a, const PairTotals<Sums>& b) {
         a.sums += b.sums;
         a.sq_error += b.sq_error;
         a.kept += b.kept;
+        a.aside += b.aside;
       });
 }
 
@@ -184,7 +193,7 @@ IcpStep solve_step(const StepInput& in, const StepCost& given, int threads) {
   auto finish = [&](const auto& totals, std::size_t min_pairs) {
     step.kept = totals.kept;
     step.rms = totals.kept ? std::sqrt(totals.sq_error / static_cast<double>(totals.kept)) : 0.0;
-    step.solvable = totals.kept >= min_pairs;
+    step.solvable = totals.kept - totals.aside >= min_pairs;
   };
   if (cost.method == IcpMethod::kPointToPoint) {
     const auto totals = reduce_pairs<KabschAccumulator>(
@@ -272,7 +281,8 @@ Matrix6d pose_covariance(const StepInput& in, const StepCost& cost, const Matrix
         }
         return 0.0;
       });
-  if (totals.kept < (cost.method == IcpMethod::kPointToPoint ? 3u : 6u)) return Matrix6d::Zero();
+  if (totals.kept - totals.aside < (cost.method == IcpMethod::kPointToPoint ? 3u : 6u))
+    return Matrix6d::Zero();
   const Eigen::SelfAdjointEigenSolver<Matrix6d> eig(totals.sums.H);
   const Vector6d values = eig.eigenvalues().cwiseMax(1e-12 * eig.eigenvalues().maxCoeff());
   const Matrix6d H_inv =

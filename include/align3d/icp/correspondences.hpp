@@ -5,6 +5,7 @@
 
 #include <Eigen/Geometry>
 #include <cstddef>
+#include <cstdint>
 #include <limits>
 #include <vector>
 
@@ -24,6 +25,9 @@ struct Correspondences {
   // A mesh target's partners: the closest point on the surface and its triangle's unit normal
   // (`target` then holds the triangle). Empty for a point-cloud target.
   std::vector<Eigen::Vector3d> point, normal;
+  // Pairs the update sets aside (non-zero; IcpSettings::reciprocity): counted in the RMS and the
+  // kept pairs, left out of the system. Empty: none. Not touched by the searches below.
+  std::vector<std::uint8_t> aside;
 };
 
 // Pairs T·source[i] with its nearest target point closer than `bound` (data units; infinity: no

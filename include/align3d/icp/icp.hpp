@@ -34,6 +34,16 @@ struct IcpSettings {
   // Estimate IcpResult::covariance at the returned pose (one more pass over the pairs and a sort
   // of them); refine() asks for it in its final stage only.
   bool covariance = false;
+  // >= 1 (a point-cloud target): a pair (p, q) within the threshold and longer than
+  // reciprocity_floor (data units) enters the update only when no other kept pair of the same
+  // target point q is shorter than |p − q| ÷ reciprocity (1: the shortest pair of each target
+  // point only, PCL's CorrespondenceRejectorOneToOne). It sets aside the pairs of source points
+  // beyond the target's rim, which crowd onto the rim and drag the source along the surface; a
+  // pair within the floor (refine(): half a point spacing) cannot reach far beyond a rim. The RMS
+  // and the kept pairs (IcpResult) still count the pairs set aside, so they judge a pose as
+  // without it. 0: off.
+  double reciprocity = 0.0;
+  double reciprocity_floor = 0.0;
   int threads = 0;  // 0: all cores; the result does not depend on it
 };
 
