@@ -444,7 +444,7 @@ TEST(IcpRejection, ThresholdOfEachRule) {
 // the target over x ∈ [0, 30], the source over [0, 40]; the truth is the identity. The overhang's
 // points pair with the rim and drag point-to-point along x (measured 0.54-0.74 and 0.27-0.57° on
 // three seeds); with reciprocity (IcpSettings::reciprocity, refine()'s 1) they are set aside and
-// the pose stays (0.02-0.04, 0.04-0.10°). At a given pose the RMS and the pairs are those without
+// the pose stays (0.03-0.05, 0.04-0.07°). At a given pose the RMS and the pairs are those without
 // it.
 PointCloud bumpy_patch(double x_max, int n, Random& rng) {
   PointCloud c;
