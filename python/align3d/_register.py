@@ -164,8 +164,9 @@ class Result(_Report):
 
     @property
     def rms(self) -> float:
-        """RMS residual of the kept pairs at the final pose: distance (point-to-point) or distance
-        to the tangent plane (the other methods), data units."""
+        """RMS residual of the kept pairs at the final pose: distance (point-to-point: to the
+        nearest target point, or with ``auto`` onto a point cloud to that point's tangent plane)
+        or distance to the tangent plane (the other methods), data units."""
         return self._report["rms"]
 
     @property

@@ -55,6 +55,12 @@ void set_aside_crowded(std::size_t targets, double threshold, double reciprocity
   });
 }
 
+// Whether the run reads a point-cloud target's normals: every method but point-to-point, and
+// point-to-point onto tangent planes (IcpSettings::tangent_planes).
+bool reads_target_normals(const IcpSettings& s) {
+  return s.method != IcpMethod::kPointToPoint || s.tangent_planes;
+}
+
 // What a run registers onto: a point cloud with its kd-tree (and a NormalCache when its normals are
 // estimated on demand), or a mesh's exact surface.
 struct Target {
@@ -126,10 +132,10 @@ IcpResult run_icp(const PointCloud& source, const Target& target, const Eigen::I
     if (s.reciprocity > 0 && target.cloud)
       set_aside_crowded(target.cloud->size(), threshold, s.reciprocity, s.reciprocity_floor,
                         s.threads, c);
-    if (cache && s.method != IcpMethod::kPointToPoint)
+    if (cache && reads_target_normals(s))
       cache->require(missing_normals(c, threshold, *cache, s.threads));
     IcpStep step = solve_step({moving, moving_normals, target_cloud, normals, c,
-                               result.T_target_source, centre, threshold},
+                               result.T_target_source, centre, threshold, s.tangent_planes},
                               cost, s.threads);
     kernel_scale = step.kernel_scale;
     result.history.push_back({step.rms, step.kept, threshold});
@@ -154,10 +160,11 @@ IcpResult run_icp(const PointCloud& source, const Target& target, const Eigen::I
     previous_rms = step.rms;
   }
   if (s.covariance)
-    result.covariance = pose_covariance({moving, moving_normals, target_cloud, normals, c,
-                                         result.T_target_source, centre, threshold},
-                                        {s.method, s.kernel, kernel_scale}, result.hessian,
-                                        result.degenerate_directions, diagonal, s.threads);
+    result.covariance =
+        pose_covariance({moving, moving_normals, target_cloud, normals, c, result.T_target_source,
+                         centre, threshold, s.tangent_planes},
+                        {s.method, s.kernel, kernel_scale}, result.hessian,
+                        result.degenerate_directions, diagonal, s.threads);
   result.fitness = source.empty() ? 0.0
                                   : static_cast<double>(result.correspondences) /
                                         static_cast<double>(source.size());
@@ -178,9 +185,11 @@ void check_run(const PointCloud& source, const IcpSettings& s) {
 IcpResult icp(const PointCloud& source, const PointCloud& target, const KdTree& tree,
               const Eigen::Isometry3d& init, const IcpSettings& s) {
   check_run(source, s);
-  if (s.method != IcpMethod::kPointToPoint && !target.has_normals())
-    throw std::invalid_argument(std::string("icp: ") + to_string(s.method) +
-                                " needs target normals");
+  if (reads_target_normals(s) && !target.has_normals())
+    throw std::invalid_argument(
+        std::string("icp: ") + to_string(s.method) +
+        (s.method == IcpMethod::kPointToPoint ? " onto tangent planes" : "") +
+        " needs target normals");
   if (tree.size() != target.size())
     throw std::invalid_argument("icp: the kd-tree does not index the target");
   return run_icp(source, {&target, &tree, nullptr, nullptr}, init, s);

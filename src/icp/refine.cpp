@@ -356,6 +356,7 @@ void refine_schedule(const PointCloud& source, RefineTarget& target, const Eigen
   if (!target.surface()) {
     last.reciprocity = kFinalReciprocity;
     last.reciprocity_floor = kReciprocityFloorSpacings * spacing;
+    last.tangent_planes = true;
   }
   if (!settings.kernel) {
     last.kernel = RobustKernel::kGemanMcClure;

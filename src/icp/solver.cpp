@@ -30,6 +30,20 @@ bool compatible(IcpMethod method, const Pair& pair) {
   return !needs_source_normals(method) || pair.m.dot(pair.n) >= kCompatibleCosine;
 }
 
+// The pair's distance from the partner's tangent plane.
+double plane_distance(const Pair& pair) { return (pair.p - pair.q).dot(pair.n); }
+
+// Point-to-point onto a point cloud's surface (IcpSettings::tangent_planes): the partner moves to
+// the source point's foot on its tangent plane (none without a normal).
+bool on_planes(const StepInput& in, IcpMethod method) {
+  return method == IcpMethod::kPointToPoint && in.tangent_planes && in.pairs.point.empty();
+}
+void onto_tangent_plane(Pair& pair) {
+  if (pair.n.squaredNorm() == 0) return;
+  pair.q += (pair.p - pair.q) - plane_distance(pair) * pair.n;
+  pair.distance = (pair.p - pair.q).norm();
+}
+
 template <class Sums>
 struct PairTotals {
   Sums sums;
@@ -45,6 +59,7 @@ template <class Sums, class Add>
 PairTotals<Sums> reduce_pairs(const StepInput& in, IcpMethod method, int threads, Add add) {
   const Correspondences& c = in.pairs;
   const bool surface = !c.point.empty();  // a mesh target: the partners themselves are given
+  const bool planes = on_planes(in, method);
   const Eigen::Matrix3d R = in.T.linear();
   return parallel_reduce(
       in.source.size(), threads, PairTotals<Sums>{},
@@ -61,6 +76,7 @@ PairTotals<Sums> reduce_pairs(const StepInput& in, IcpMethod method, int threads
                                            : Eigen::Vector3d(R * in.source_normals[i]);
         if (pair.m.dot(pair.n) < 0) pair.m = -pair.m;
         pair.distance = c.distance[i];
+        if (planes) onto_tangent_plane(pair);
         pair.partner = surface ? i : j;
         if (!compatible(method, pair)) return;
         ++a.kept;
@@ -80,10 +96,7 @@ PairTotals<Sums> reduce_pairs(const StepInput& in, IcpMethod method, int threads
       });
 }
 
-// The pair's distance from the partner's tangent plane.
-double plane_distance(const Pair& pair) { return (pair.p - pair.q).dot(pair.n); }
-
-// The residual the kernel weighs (solver.hpp, StepCost).
+// The residual the kernel weighs (solver.hpp, StepCost; onto a tangent plane, the distance to it).
 double kernel_residual(IcpMethod method, const Pair& pair) {
   return method == IcpMethod::kPointToPoint ? pair.distance : std::abs(plane_distance(pair));
 }
@@ -259,12 +272,15 @@ Matrix6d clustered_meat(std::vector<std::pair<std::uint64_t, Vector6d>>& g) {
 
 Matrix6d pose_covariance(const StepInput& in, const StepCost& cost, const Matrix6d& hessian,
                          const std::vector<WeakDirection>& weak, double free_sigma, int threads) {
+  // Onto tangent planes, point-to-point's stationary point is point-to-plane's: Σ Jᵀ(p − q') = 0
+  // with p − q' along n is point-to-plane's normal equations, the kernel on the same residual.
+  const IcpMethod factor = on_planes(in, cost.method) ? IcpMethod::kPointToPlane : cost.method;
   auto totals =
       reduce_pairs<SandwichSums>(in, cost.method, threads, [&](SandwichSums& s, const Pair& pair) {
         const double d = kernel_residual(cost.method, pair);
         const double w = kernel_weight(cost.kernel, d, cost.kernel_scale);
         const double slope = kernel_slope(cost.kernel, d, cost.kernel_scale);
-        if (cost.method == IcpMethod::kPointToPoint || cost.method == IcpMethod::kGicp) {
+        if (factor == IcpMethod::kPointToPoint || factor == IcpMethod::kGicp) {
           const Eigen::Vector3d e = pair.p - pair.q;
           const Eigen::Matrix3d M = cost.method == IcpMethod::kGicp
                                         ? GicpFactor::weight(pair.m, pair.n)
@@ -275,7 +291,7 @@ Matrix6d pose_covariance(const StepInput& in, const StepCost& cost, const Matrix
         } else {
           double r;
           Vector6d J;
-          scalar_factor(cost.method, pair, r, J);
+          scalar_factor(factor, pair, r, J);
           s.H.noalias() += slope * J * J.transpose();
           s.gradients.emplace_back(pair.partner, (w * r) * J);
         }

@@ -44,6 +44,17 @@ struct IcpSettings {
   // without it. 0: off.
   double reciprocity = 0.0;
   double reciprocity_floor = 0.0;
+  // Point-to-point onto a point cloud with normals: each source point pairs with its foot on the
+  // tangent plane of its nearest target point (the target's local surface) instead of the sample
+  // itself, as it pairs with the closest point of a mesh's triangles: the closest point on the
+  // shape (Besl and McKay 1992), not on its samples (CloudCompare's cloud-to-cloud distance with a
+  // local model is the same idea). Two samplings of one surface then meet at the noise floor,
+  // where sample-to-sample pairs leave a bias of a fraction of a spacing (the chapter's
+  // point-to-point stops above the noise floor for this reason). The residual lies along the
+  // normal, so the run stops where point-to-plane's does (Σ Jᵀ(p − q') = 0 is point-to-plane's
+  // normal equations), by the closed-form step, and its covariance is point-to-plane's. refine()
+  // sets it in its final stage. Read by point-to-point only.
+  bool tangent_planes = false;
   int threads = 0;  // 0: all cores; the result does not depend on it
 };
 

@@ -22,7 +22,8 @@ namespace align3d {
 // target point, meaningful where pairs land) is read by every method but point-to-point;
 // `source_normals` (one per source point, in `source`'s order) by GICP and symmetric. When the
 // pairs carry their partners (pairs.point: a mesh target), those and pairs.normal are used instead
-// of `target` and `normals`.
+// of `target` and `normals`. tangent_planes (IcpSettings::tangent_planes): point-to-point's partner
+// is the source point's foot on the target point's tangent plane.
 struct StepInput {
   const std::vector<Eigen::Vector3d>& source;
   const std::vector<Eigen::Vector3d>& source_normals;
@@ -32,6 +33,7 @@ struct StepInput {
   const Eigen::Isometry3d& T;
   const Eigen::Vector3d& centre;
   double threshold;
+  bool tangent_planes = false;
 };
 
 // The cost: the method, and the kernel of the pairs' residuals (distance for point-to-point, plane
@@ -48,8 +50,8 @@ struct StepCost {
 struct IcpStep {
   Eigen::Isometry3d delta = Eigen::Isometry3d::Identity();  // in the frame centred on `centre`
   // RMS residual of the kept pairs at the current pose, in data units: the distance for
-  // point-to-point, the plane distance for point-to-plane and GICP (along the target normal) and
-  // symmetric (along the mean normal).
+  // point-to-point (to the partner's tangent plane with tangent_planes), the plane distance for
+  // point-to-plane and GICP (along the target normal) and symmetric (along the mean normal).
   double rms = 0;
   // Pairs with distance <= threshold (and, for GICP and symmetric, compatible normals).
   std::size_t kept = 0;
@@ -74,9 +76,11 @@ IcpStep solve_step(const StepInput& in, const StepCost& cost, int threads);
 // (`weak`, of its system `hessian`: IcpStep::weak, IcpStep::hessian) gets a standard deviation
 // `free_sigma` (data units; the loop passes the target's diagonal): the data do not fix it.
 // `cost.kernel_scale` must be the step's (IcpStep::kernel_scale). Zero with fewer pairs than the
-// method needs. Not for point-to-point's error on two samplings of a surface, which is a bias from
-// the pairing, not noise; nor for point-to-plane's bias between two range scans (about one σ:
-// tests/icp_methods_test.cpp, Covariance/RangeScans), where GICP and symmetric are calibrated.
+// method needs. Point-to-point onto tangent planes (tangent_planes) stops where point-to-plane does
+// and gets point-to-plane's covariance. Not for point-to-point's error on two samplings of a
+// surface paired sample to sample, which is a bias from the pairing, not noise; nor for
+// point-to-plane's bias between two range scans (about one σ: tests/icp_methods_test.cpp,
+// Covariance/RangeScans), where GICP and symmetric are calibrated.
 Matrix6d pose_covariance(const StepInput& in, const StepCost& cost, const Matrix6d& hessian,
                          const std::vector<WeakDirection>& weak, double free_sigma, int threads);
 
