@@ -554,7 +554,7 @@ void read_entries(BodyReader& body, const TableCounts& n, PpfModel& model) {
 
 double ppf_model_voxel(const PointCloud& model, double voxel) {
   if (!(voxel > 0) || !std::isfinite(voxel))
-    throw std::invalid_argument("build_ppf_model: voxel size must be positive");
+    throw std::invalid_argument("PPF model: voxel size must be positive");
   // Bound the table (N² pairs): enlarge the voxel until at most kMaxModelPoints remain.
   std::size_t count = voxel_downsample(model, voxel).size();
   while (count > kMaxModelPoints) {

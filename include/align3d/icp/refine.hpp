@@ -86,9 +86,10 @@
 // samples: 15 and 24), 1.4× and 1.25× the time of the samples' runs. The relative RMS change
 // (1e-5) then stops it short of its stationary point on large clouds: at 1M points 0.0005° and
 // 0.0078 mm off where point-to-plane ends 0.0001° and 0.0006 (NEES 423 against 4.6); with
-// --tolerance 1e-7 it reaches it (NEES 3.1) at the cap of 60 iterations. Anderson acceleration
-// (AA-ICP) of the closed-form step, tried with depths 2-8, cut the iterations at 1M to 17 with an
-// erratic accuracy (NEES 7-72 by depth) and did nothing on the evaluation scenes: not kept.
+// --tolerance 1e-7 it gets there (NEES 3.1) but runs into the cap of 60 iterations. Anderson
+// acceleration (AA-ICP) of the closed-form step, tried with depths 2-8, cut the iterations at 1M
+// to 17 with an erratic accuracy (NEES 7-72 by depth) and did nothing on the evaluation scenes:
+// not kept.
 //
 // Why the GICP candidate (issue 18): two range scans that each see a side the other does not, of
 // a curved object with thin parts (evaluation_scenes()'s animal, 61 % overlap). The unshared points
