@@ -19,9 +19,8 @@ std::vector<std::uint32_t> missing_normals(const Correspondences& c, double thre
   return parallel_reduce(
       c.target.size(), threads, std::vector<std::uint32_t>{},
       [&](std::vector<std::uint32_t>& missing, std::size_t i) {
-        const std::size_t j = c.target[i];
-        if (j != kNoPartner && c.distance[i] <= threshold && !cache.known(j))
-          missing.push_back(static_cast<std::uint32_t>(j));
+        if (is_kept(c, i, threshold) && !cache.known(c.target[i]))
+          missing.push_back(static_cast<std::uint32_t>(c.target[i]));
       },
       [](std::vector<std::uint32_t>& a, const std::vector<std::uint32_t>& b) {
         a.insert(a.end(), b.begin(), b.end());
@@ -43,15 +42,13 @@ void set_aside_crowded(std::size_t targets, double threshold, double reciprocity
   thread_local std::vector<double> buffer;
   std::vector<double>& shortest = buffer;
   shortest.assign(targets, std::numeric_limits<double>::infinity());
-  auto kept = [&](std::size_t i) {
-    return c.target[i] != kNoPartner && c.distance[i] <= threshold;
-  };
   for (std::size_t i = 0; i < c.target.size(); ++i)
-    if (kept(i)) shortest[c.target[i]] = std::min(shortest[c.target[i]], c.distance[i]);
+    if (is_kept(c, i, threshold))
+      shortest[c.target[i]] = std::min(shortest[c.target[i]], c.distance[i]);
   c.aside.assign(c.target.size(), 0);
   parallel_for(c.target.size(), threads, [&](std::size_t i) {
-    c.aside[i] =
-        kept(i) && c.distance[i] > floor && c.distance[i] > reciprocity * shortest[c.target[i]];
+    c.aside[i] = is_kept(c, i, threshold) && c.distance[i] > floor &&
+                 c.distance[i] > reciprocity * shortest[c.target[i]];
   });
 }
 

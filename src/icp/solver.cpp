@@ -50,6 +50,7 @@ struct PairTotals {
   double sq_error = 0;
   std::size_t kept = 0;
   std::size_t aside = 0;  // of the kept, those set aside (Correspondences::aside)
+  std::size_t used() const { return kept - aside; }  // the pairs in `sums`
 };
 
 // Folds every kept pair (within the threshold, and compatible for `method`) into Sums:
@@ -64,7 +65,7 @@ PairTotals<Sums> reduce_pairs(const StepInput& in, IcpMethod method, int threads
   return parallel_reduce(
       in.source.size(), threads, PairTotals<Sums>{},
       [&](PairTotals<Sums>& a, std::size_t i) {
-        if (c.target[i] == kNoPartner || c.distance[i] > in.threshold) return;
+        if (!is_kept(c, i, in.threshold)) return;
         const std::size_t j = c.target[i];
         Pair pair;
         pair.p = in.T * in.source[i] - in.centre;
@@ -206,7 +207,7 @@ IcpStep solve_step(const StepInput& in, const StepCost& given, int threads) {
   auto finish = [&](const auto& totals, std::size_t min_pairs) {
     step.kept = totals.kept;
     step.rms = totals.kept ? std::sqrt(totals.sq_error / static_cast<double>(totals.kept)) : 0.0;
-    step.solvable = totals.kept - totals.aside >= min_pairs;
+    step.solvable = totals.used() >= min_pairs;
   };
   if (cost.method == IcpMethod::kPointToPoint) {
     const auto totals = reduce_pairs<KabschAccumulator>(
@@ -297,8 +298,7 @@ Matrix6d pose_covariance(const StepInput& in, const StepCost& cost, const Matrix
         }
         return 0.0;
       });
-  if (totals.kept - totals.aside < (cost.method == IcpMethod::kPointToPoint ? 3u : 6u))
-    return Matrix6d::Zero();
+  if (totals.used() < (cost.method == IcpMethod::kPointToPoint ? 3u : 6u)) return Matrix6d::Zero();
   const Eigen::SelfAdjointEigenSolver<Matrix6d> eig(totals.sums.H);
   const Vector6d values = eig.eigenvalues().cwiseMax(1e-12 * eig.eigenvalues().maxCoeff());
   const Matrix6d H_inv =

@@ -30,6 +30,11 @@ struct Correspondences {
   std::vector<std::uint8_t> aside;
 };
 
+// Whether source point i has a partner within `threshold` (a kept pair).
+inline bool is_kept(const Correspondences& c, std::size_t i, double threshold) {
+  return c.target[i] != kNoPartner && c.distance[i] <= threshold;
+}
+
 // Pairs T·source[i] with its nearest target point closer than `bound` (data units; infinity: no
 // bound). `tree` indexes target.positions. When `pairs` already holds the previous iteration's
 // partners of the same source, each one bounds its new search: the nearest point is at most as
