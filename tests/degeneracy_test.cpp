@@ -9,6 +9,7 @@
 
 #include "align3d/icp/icp.hpp"
 #include "align3d/kdtree.hpp"
+#include "align3d/mesh_index.hpp"
 #include "align3d/normals.hpp"
 #include "detail/random.hpp"
 #include "test_util.hpp"
@@ -70,13 +71,14 @@ struct Outcome {
 
 // Source = target geometry sampled afresh, moved by `init`⁻¹ (so `init` is a perfect pose) and
 // then started from `init` composed with `offset`: the pose error to remove is `offset`.
-Outcome run(const std::function<Eigen::Vector3d(Random&)>& draw, const Eigen::Isometry3d& offset) {
+// `s`: the run's settings (point-to-plane by default).
+Outcome run(const std::function<Eigen::Vector3d(Random&)>& draw, const Eigen::Isometry3d& offset,
+            IcpSettings s = {}) {
   Random rng(5);
   PointCloud target = sample(20000, rng, 0.05, draw);
   const KdTree tree(target.positions);
   estimate_normals(target, tree);
   PointCloud source = sample(15000, rng, 0.05, draw);
-  IcpSettings s;
   s.rejection = RejectionRule::max_distance(10);
   s.termination.max_iterations = 100;
   Outcome out;
@@ -125,6 +127,55 @@ TEST(Degeneracy, SinglePlaneFixesTiltAndHeightAndKeepsTheYaw) {
   EXPECT_NEAR(yaw_deg(T), 5.0, 0.01);
   EXPECT_LT((T.translation() - free_part.translation()).head<2>().norm(), 0.1);
   EXPECT_EQ(o.result.degenerate_directions.size(), 3u);
+}
+
+// Point-to-point's closed-form step analyses no system, but onto the target's surface (tangent
+// planes of a point cloud, or a mesh's triangles) each residual lies along its partner's normal:
+// the step removes the tilt and the height without moving along the plane, and point-to-plane's
+// system of its pairs reports the three free directions.
+void expect_point_to_point_on_plane(const IcpResult& r, const Eigen::Isometry3d& free_part) {
+  const Eigen::Isometry3d& T = r.T_target_source;
+  EXPECT_LT(std::acos(std::min(1.0, (T.linear() * Eigen::Vector3d::UnitZ()).z())),
+            deg_to_rad(0.01));
+  EXPECT_LT(std::abs(T.translation().z()), 0.01);
+  EXPECT_NEAR(yaw_deg(T), 5.0, 0.01);
+  EXPECT_LT((T.translation() - free_part.translation()).head<2>().norm(), 0.1);
+  ASSERT_EQ(r.degenerate_directions.size(), 3u);
+  Eigen::Vector3d rot = Eigen::Vector3d::Zero(), trans = Eigen::Vector3d::Zero();
+  for (const auto& w : r.degenerate_directions) {
+    rot += w.rotation.cwiseAbs2();
+    trans += w.translation.cwiseAbs2();
+  }
+  EXPECT_NEAR(rot.z(), 1.0, 1e-3);
+  EXPECT_NEAR(trans.x() + trans.y(), 2.0, 1e-3);
+}
+
+TEST(Degeneracy, PointToPointOntoTangentPlanesReportsThePlanesFreeDirections) {
+  const Eigen::Isometry3d free_part = rigid_transform(5, {0, 0, 1}, {4, -3, 0});
+  const Eigen::Isometry3d offset = rigid_transform(2, {1, 0.5, 0}, {0, 0, 1.5}) * free_part;
+  IcpSettings s;
+  s.method = IcpMethod::kPointToPoint;
+  s.tangent_planes = true;
+  expect_point_to_point_on_plane(run(on_plane, offset, s).result, free_part);
+  // Sample to sample it analyses no system.
+  s.tangent_planes = false;
+  EXPECT_TRUE(run(on_plane, offset, s).result.degenerate_directions.empty());
+}
+
+TEST(Degeneracy, PointToPointOntoAMeshPlaneReportsItsFreeDirections) {
+  TriangleMesh plane;
+  plane.vertices = {{-120, -90, 0}, {120, -90, 0}, {120, 90, 0}, {-120, 90, 0}};
+  plane.triangles = {{0, 1, 2}, {0, 2, 3}};
+  const MeshIndex surface(plane);
+  Random rng(5);
+  const PointCloud source = sample(15000, rng, 0.05, on_plane);
+  const Eigen::Isometry3d free_part = rigid_transform(5, {0, 0, 1}, {4, -3, 0});
+  const Eigen::Isometry3d offset = rigid_transform(2, {1, 0.5, 0}, {0, 0, 1.5}) * free_part;
+  IcpSettings s;
+  s.method = IcpMethod::kPointToPoint;
+  s.rejection = RejectionRule::max_distance(10);
+  s.termination.max_iterations = 100;
+  expect_point_to_point_on_plane(icp(source, surface, offset, s), free_part);
 }
 
 TEST(Degeneracy, TwoParallelPlanesAreAsFreeAsOne) {

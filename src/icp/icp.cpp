@@ -117,6 +117,11 @@ IcpResult run_icp(const PointCloud& source, const Target& target, const Eigen::I
   result.centre = centre;
   Correspondences c;
   double threshold = 0, kernel_scale = 0;
+  // The kept pairs at the current pose, as the solver reads them.
+  auto pairs = [&] {
+    return StepInput{moving, moving_normals, target_cloud,    normals, c, result.T_target_source,
+                     centre, threshold,      s.tangent_planes};
+  };
   double previous_rms = std::numeric_limits<double>::quiet_NaN();
   for (;;) {
     if (target.surface)
@@ -131,9 +136,7 @@ IcpResult run_icp(const PointCloud& source, const Target& target, const Eigen::I
                         s.threads, c);
     if (cache && reads_target_normals(s))
       cache->require(missing_normals(c, threshold, *cache, s.threads));
-    IcpStep step = solve_step({moving, moving_normals, target_cloud, normals, c,
-                               result.T_target_source, centre, threshold, s.tangent_planes},
-                              cost, s.threads);
+    IcpStep step = solve_step(pairs(), cost, s.threads);
     kernel_scale = step.kernel_scale;
     result.history.push_back({step.rms, step.kept, threshold});
     result.rms = step.rms;
@@ -156,12 +159,20 @@ IcpResult run_icp(const PointCloud& source, const Target& target, const Eigen::I
     ++result.iterations;
     previous_rms = step.rms;
   }
+  // Point-to-point onto a surface (a mesh's triangles, tangent planes): each residual lies along
+  // its partner's normal, so the closed-form step does not move along the directions the data
+  // leave free, and point-to-plane's system of the same pairs finds them (one more pass, at the
+  // returned pose only).
+  if (s.method == IcpMethod::kPointToPoint && (target.surface || s.tangent_planes) &&
+      result.stop_reason != StopReason::kTooFewCorrespondences) {
+    IcpStep plane =
+        solve_step(pairs(), {IcpMethod::kPointToPlane, s.kernel, kernel_scale}, s.threads);
+    result.hessian = plane.hessian;
+    result.degenerate_directions = std::move(plane.weak);
+  }
   if (s.covariance)
-    result.covariance =
-        pose_covariance({moving, moving_normals, target_cloud, normals, c, result.T_target_source,
-                         centre, threshold, s.tangent_planes},
-                        {s.method, s.kernel, kernel_scale}, result.hessian,
-                        result.degenerate_directions, diagonal, s.threads);
+    result.covariance = pose_covariance(pairs(), {s.method, s.kernel, kernel_scale}, result.hessian,
+                                        result.degenerate_directions, diagonal, s.threads);
   result.fitness = source.empty() ? 0.0
                                   : static_cast<double>(result.correspondences) /
                                         static_cast<double>(source.size());

@@ -70,14 +70,16 @@ struct IcpResult {
   std::vector<IterationRecord> history;  // iterations + 1 evaluations, the last at the result
   // The method's system at the returned pose (H of Σ w r², in the frame centred on `centre`,
   // unknowns ω then v; ã then t̃ for symmetric) for judging which directions the data constrains;
-  // zero for point-to-point.
+  // point-to-point onto a mesh or tangent planes: point-to-plane's of its pairs at the returned
+  // pose; zero for point-to-point sample to sample.
   Matrix6d hessian = Matrix6d::Zero();
   // The point the system's unknowns are taken about: the target's centroid (a mesh: the centre of
   // its bounding box). An update (ω, v) moves x to x + ω × (x − centre) + v.
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();
   // Directions of that system the data leaves (nearly) free, weakest first (icp/degeneracy.hpp):
-  // every update but point-to-point's is solved without moving along them. Empty when all six are
-  // constrained, and always for point-to-point.
+  // every update is solved without moving along them (point-to-point's closed-form step on a
+  // surface does not: each residual lies along its normal). Empty when all six are constrained,
+  // and always for point-to-point sample to sample, whose step analyses no system.
   std::vector<WeakDirection> degenerate_directions;
   // With IcpSettings::covariance, the covariance of the returned pose from the kept pairs'
   // residuals (pose_covariance, solver.hpp): rotation (radians) then translation, for
