@@ -55,6 +55,18 @@ std::vector<Warning> weaknesses(const RefineResult& r, const Support& s) {
   return w;
 }
 
+// A warning when ICP stopped short of its stationary point (IcpResult::pending_sigmas): the pose
+// is right but less precise than its covariance says, which no other start or stage would change,
+// so it does not make an answer weak.
+std::optional<Warning> stopped_short(const IcpResult& icp) {
+  if (!(icp.pending_sigmas > kStoppedShortSigmas)) return std::nullopt;
+  return Warning{"stopped_short",
+                 "ICP stopped " + fixed(icp.pending_sigmas, 1) +
+                     " standard deviations of its covariance short of its stationary point; the "
+                     "pose error may exceed the covariance (a lower --tolerance with more "
+                     "--max-iterations goes further; point-to-plane converges in fewer steps)"};
+}
+
 // Why an answer that is not weak still needs the global stage's view (align.hpp); empty when it
 // does not.
 std::string unconfirmed_because(const AlignCandidate& c) {
@@ -341,8 +353,10 @@ AlignResult Pipeline::run() {
     keep(c, std::move(r));
     if (ambiguous) warn_ambiguous_global();
   }
-  if (out_.success)
+  if (out_.success) {
     for (Warning& w : weaknesses(out_.refine, out_.support)) out_.warnings.push_back(std::move(w));
+    if (auto w = stopped_short(out_.refine.icp)) out_.warnings.push_back(std::move(*w));
+  }
   out_.timings.total_ms = ms_since(start);
   return std::move(out_);
 }

@@ -273,6 +273,24 @@ TEST(AlignWarnings, IterationCapIsNotConvergence) {
   EXPECT_TRUE(has_warning(r, "not_converged")) << codes(r);
 }
 
+// The chapter's point-to-point from the identity creeps along the conveyor: its next update is
+// many standard deviations of its covariance long (IcpResult::pending_sigmas). Point-to-plane
+// from the same start reaches its stationary point.
+TEST(AlignWarnings, CreepingRunStoppedShort) {
+  const synth::Scene s = synth::make_conveyor_scene();
+  AlignSettings settings;
+  settings.init = InitPolicy::kIdentity;
+  settings.refine.rejection = RejectionRule::median(2.5, 0.5);
+  settings.refine.method = IcpMethod::kPointToPoint;
+  const AlignResult creeping = align(s.scan, s.model, settings);
+  EXPECT_TRUE(has_warning(creeping, "stopped_short")) << codes(creeping);
+  EXPECT_GT(creeping.refine.icp.pending_sigmas, kStoppedShortSigmas);
+  settings.refine.method = IcpMethod::kPointToPlane;
+  const AlignResult settled = align(s.scan, s.model, settings);
+  EXPECT_FALSE(has_warning(settled, "stopped_short")) << codes(settled);
+  EXPECT_LT(settled.refine.icp.pending_sigmas, 0.1);
+}
+
 // A box has symmetries: a half turn lays it onto itself as well as the truth does.
 TEST(AlignWarnings, SymmetricPartIsAmbiguous) {
   Random rng(8);

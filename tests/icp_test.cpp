@@ -524,5 +524,47 @@ TEST(IcpTangentPlanes, PointToPointStopsWherePointToPlaneDoes) {
   EXPECT_THROW(icp(source, bare, tree, start, feet), std::invalid_argument);
 }
 
+// IcpResult::pending_sigmas: how far, in the covariance's standard deviations, the returned pose
+// lies from the stationary point. Point-to-point onto tangent planes stopped early (a loose RMS
+// rule; its closed-form step converges linearly) must say so, within a factor 2 of the true
+// distance to that point (point-to-plane run to a standstill, the same normal equations:
+// IcpTangentPlanes above) in the same units; run to a standstill it and point-to-plane report a
+// small fraction of a standard deviation.
+TEST(IcpTangentPlanes, PendingStepMeasuresTheDistanceLeftToTheStationaryPoint) {
+  Random rng(3);
+  PointCloud target = bumpy_patch(30, 3000, rng);
+  const PointCloud source = bumpy_patch(30, 3000, rng);
+  estimate_normals(target, NormalSettings{});
+  const KdTree tree(target.positions);
+  const Eigen::Isometry3d start = rigid_transform(1.0, {1, 2, 3}, {0.3, -0.2, 0.1});
+  IcpSettings feet;
+  feet.method = IcpMethod::kPointToPoint;
+  feet.tangent_planes = true;
+  feet.covariance = true;
+  feet.rejection = RejectionRule::max_distance(2.0);
+  feet.termination = {2000, 0, false, 1e-12, 1e-12};
+  IcpSettings plane = feet;
+  plane.method = IcpMethod::kPointToPlane;
+  const IcpResult still = icp(source, target, tree, start, plane);
+  const IcpResult settled = icp(source, target, tree, start, feet);
+  ASSERT_TRUE(still.converged && settled.converged);
+  EXPECT_LT(still.pending_sigmas, 0.01);
+  EXPECT_LT(settled.pending_sigmas, 0.01);
+
+  feet.termination = {2000, 2e-3, true, 0, 0};
+  const IcpResult early = icp(source, target, tree, start, feet);
+  ASSERT_TRUE(early.converged);
+  const Eigen::Isometry3d left = still.T_target_source * early.T_target_source.inverse();
+  const Eigen::AngleAxisd turn(left.linear());
+  Vector6d xi;
+  xi << turn.angle() * turn.axis(), left.translation();
+  const double distance = std::sqrt(xi.dot(early.covariance.ldlt().solve(xi)));
+  std::printf("stopped after %d updates, %.2f sigmas from the stationary point, %.2f pending\n",
+              early.iterations, distance, early.pending_sigmas);
+  EXPECT_GT(distance, 2);
+  EXPECT_GT(early.pending_sigmas, 0.5 * distance);
+  EXPECT_LT(early.pending_sigmas, 2 * distance);
+}
+
 }  // namespace
 }  // namespace align3d

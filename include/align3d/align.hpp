@@ -60,6 +60,9 @@ const char* to_string(InitPolicy p);
 constexpr double kWeakOverlap = 0.2;
 constexpr double kConfirmedOverlap = 0.5;  // kConfirmedRms, kClearlyBetter: icp/refine.hpp
 constexpr double kWeakRms = 2.5;
+// ICP's next update longer than this many standard deviations of its covariance
+// (IcpResult::pending_sigmas): it stopped short of its stationary point (warning stopped_short).
+constexpr double kStoppedShortSigmas = 2.0;
 constexpr double kReverseExtentRatio = 2.0;
 
 struct AlignSettings {

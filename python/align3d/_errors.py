@@ -83,10 +83,11 @@ class StrictError(Error):
 
 class AlignWarning(UserWarning):
     """A result that may be wrong (docs/report.md, "Warning codes"): ``code`` is the stable
-    identifier (``weak_overlap``, ``high_rms``, ``degenerate``, ``not_converged``, ``ambiguous``,
-    ``global_failed``, ``not_flat``; ``file`` for a file-level note such as dropped NaN points),
-    ``message`` the sentence for people. Results list them in ``warnings``; the functions also
-    issue them through Python's :mod:`warnings` (as the command line prints them on stderr)."""
+    identifier (``weak_overlap``, ``high_rms``, ``degenerate``, ``not_converged``,
+    ``stopped_short``, ``ambiguous``, ``global_failed``, ``not_flat``; ``file`` for a file-level
+    note such as dropped NaN points), ``message`` the sentence for people. Results list them in
+    ``warnings``; the functions also issue them through Python's :mod:`warnings` (as the command
+    line prints them on stderr)."""
 
     def __init__(self, code: str, message: str) -> None:
         super().__init__(message)

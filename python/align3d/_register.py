@@ -177,6 +177,12 @@ class Result(_Report):
         return np.array(self._report["covariance"], dtype=np.float64)
 
     @property
+    def pending_sigmas(self) -> float:
+        """The length of ICP's next update in standard deviations of ``covariance``: far below 1
+        at a stationary point, above 2 warned as ``stopped_short`` (docs/report.md)."""
+        return float(self._report["pending_sigmas"])
+
+    @property
     def fitness(self) -> float:
         """Kept pairs ÷ points of the moving cloud (Open3D's meaning; not an accuracy)."""
         return self._report["fitness"]

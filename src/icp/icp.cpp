@@ -1,6 +1,8 @@
 #include "align3d/icp/icp.hpp"
 
+#include <Eigen/Cholesky>
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <limits>
 #include <stdexcept>
@@ -77,6 +79,18 @@ Eigen::Vector3d centre_of(const MeshIndex& surface) {
   return 0.5 * (lo + hi);
 }
 
+// The length of the left perturbation Δ (Δ·T) in the standard deviations of `covariance`; 0 when
+// that is zero or singular.
+double mahalanobis(const Eigen::Isometry3d& delta, const Matrix6d& covariance) {
+  const Eigen::AngleAxisd turn(delta.linear());
+  Vector6d xi;
+  xi << turn.angle() * turn.axis(), delta.translation();
+  const Eigen::LDLT<Matrix6d> ldlt(covariance);
+  if (covariance.isZero() || ldlt.info() != Eigen::Success || !ldlt.isPositive()) return 0;
+  const double m2 = xi.dot(ldlt.solve(xi));
+  return std::isfinite(m2) && m2 > 0 ? std::sqrt(m2) : 0.0;
+}
+
 // The loop; point-to-plane takes its normals from the surface's triangles, from `cache` when there
 // is one (estimating those the kept pairs need first), or from the cloud's normals.
 IcpResult run_icp(const PointCloud& source, const Target& target, const Eigen::Isometry3d& init,
@@ -92,7 +106,6 @@ IcpResult run_icp(const PointCloud& source, const Target& target, const Eigen::I
   const double diagonal =
       target.surface ? target.surface->diagonal() : bounding_box_diagonal(*target.cloud);
   const TerminationSettings& term = s.termination;
-  const std::size_t min_pairs = s.method == IcpMethod::kPointToPoint ? 3 : 6;
 
   // The source in spatial order (spatial_order, kdtree.hpp): consecutive queries and their target
   // partners are close in space, so the search and the sums stay in cache on large clouds.
@@ -123,6 +136,7 @@ IcpResult run_icp(const PointCloud& source, const Target& target, const Eigen::I
                      centre, threshold,      s.tangent_planes};
   };
   double previous_rms = std::numeric_limits<double>::quiet_NaN();
+  Eigen::Isometry3d pending = Eigen::Isometry3d::Identity();  // the update not applied
   for (;;) {
     if (target.surface)
       find_surface_correspondences(moving, *target.surface, result.T_target_source,
@@ -138,12 +152,13 @@ IcpResult run_icp(const PointCloud& source, const Target& target, const Eigen::I
       cache->require(missing_normals(c, threshold, *cache, s.threads));
     IcpStep step = solve_step(pairs(), cost, s.threads);
     kernel_scale = step.kernel_scale;
+    pending = step.delta;
     result.history.push_back({step.rms, step.kept, threshold});
     result.rms = step.rms;
     result.correspondences = step.kept;
     result.hessian = step.hessian;
     result.degenerate_directions = std::move(step.weak);
-    if (!step.solvable || step.kept < min_pairs) {
+    if (!step.solvable || step.kept < min_pairs(s.method)) {
       result.stop_reason = StopReason::kTooFewCorrespondences;
       break;
     }
@@ -169,10 +184,13 @@ IcpResult run_icp(const PointCloud& source, const Target& target, const Eigen::I
         solve_step(pairs(), {IcpMethod::kPointToPlane, s.kernel, kernel_scale}, s.threads);
     result.hessian = plane.hessian;
     result.degenerate_directions = std::move(plane.weak);
+    pending = plane.delta;  // toward the stationary point of the same distances
   }
-  if (s.covariance)
+  if (s.covariance) {
     result.covariance = pose_covariance(pairs(), {s.method, s.kernel, kernel_scale}, result.hessian,
                                         result.degenerate_directions, diagonal, s.threads);
+    result.pending_sigmas = mahalanobis(to_world * pending * to_world.inverse(), result.covariance);
+  }
   result.fitness = source.empty() ? 0.0
                                   : static_cast<double>(result.correspondences) /
                                         static_cast<double>(source.size());

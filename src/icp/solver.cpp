@@ -204,10 +204,10 @@ IcpStep solve_step(const StepInput& in, const StepCost& given, int threads) {
   if (cost.kernel != RobustKernel::kNone && !(cost.kernel_scale > 0))
     cost.kernel_scale = noise_scale(in, cost, threads);
   step.kernel_scale = cost.kernel == RobustKernel::kNone ? 0.0 : cost.kernel_scale;
-  auto finish = [&](const auto& totals, std::size_t min_pairs) {
+  auto finish = [&](const auto& totals) {
     step.kept = totals.kept;
     step.rms = totals.kept ? std::sqrt(totals.sq_error / static_cast<double>(totals.kept)) : 0.0;
-    step.solvable = totals.used() >= min_pairs;
+    step.solvable = totals.used() >= min_pairs(cost.method);
   };
   if (cost.method == IcpMethod::kPointToPoint) {
     const auto totals = reduce_pairs<KabschAccumulator>(
@@ -215,12 +215,12 @@ IcpStep solve_step(const StepInput& in, const StepCost& given, int threads) {
           sums.add(p.p, p.q, kernel_weight(cost.kernel, p.distance, cost.kernel_scale));
           return p.distance * p.distance;
         });
-    finish(totals, 3);
+    finish(totals);
     if (step.solvable) step.delta = solve_kabsch(totals.sums);
     return step;
   }
   const auto totals = normal_equations(in, cost, threads);
-  finish(totals, 6);
+  finish(totals);
   step.hessian = totals.sums.H;
   if (!step.solvable) return step;
   // Solve H·x = −b in the directions the data constrains; the pose does not drift along the others
@@ -298,7 +298,7 @@ Matrix6d pose_covariance(const StepInput& in, const StepCost& cost, const Matrix
         }
         return 0.0;
       });
-  if (totals.used() < (cost.method == IcpMethod::kPointToPoint ? 3u : 6u)) return Matrix6d::Zero();
+  if (totals.used() < min_pairs(cost.method)) return Matrix6d::Zero();
   const Eigen::SelfAdjointEigenSolver<Matrix6d> eig(totals.sums.H);
   const Vector6d values = eig.eigenvalues().cwiseMax(1e-12 * eig.eigenvalues().maxCoeff());
   const Matrix6d H_inv =

@@ -6,6 +6,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <cmath>
+#include <cstddef>
 #include <optional>
 #include <string_view>
 
@@ -43,6 +44,10 @@ inline std::optional<IcpMethod> icp_method_from_string(std::string_view name) {
 inline bool needs_source_normals(IcpMethod m) {
   return m == IcpMethod::kGicp || m == IcpMethod::kSymmetric;
 }
+
+// The fewest pairs that fix a pose: 3 points for point-to-point (Kabsch), 6 scalar constraints for
+// the others.
+inline std::size_t min_pairs(IcpMethod m) { return m == IcpMethod::kPointToPoint ? 3 : 6; }
 
 // Point-to-plane (chapter 39.4; Chen and Medioni 1992): r = (p − q)·n, and for the update
 // p ← p + ω × p + v the Jacobian is ∂r/∂(ω, v) = [p × n; n].

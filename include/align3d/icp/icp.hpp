@@ -86,6 +86,11 @@ struct IcpResult {
   // T ← exp(ξ)·T about the target frame's origin; zero otherwise. The accuracy of a correct
   // convergence only: it says nothing of a wrong minimum.
   Matrix6d covariance = Matrix6d::Zero();
+  // With the covariance: the length, in its standard deviations (Mahalanobis), of the update the
+  // run would apply next (for point-to-point onto a mesh or tangent planes, point-to-plane's
+  // Gauss-Newton step toward the stationary point of the same distances). Far below 1 at a
+  // stationary point; above 1 the run stopped short and the covariance understates the error.
+  double pending_sigmas = 0;
 };
 
 // Registers `source` onto `target` starting from `init` (target ≈ T·source). `tree` must index
