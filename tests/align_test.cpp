@@ -262,12 +262,18 @@ TEST(AlignWarnings, PlaneOnPlaneIsDegenerate) {
   EXPECT_TRUE(has_warning(r, "degenerate")) << codes(r);
 }
 
-TEST(AlignWarnings, IterationCapIsNotConvergence) {
-  const synth::Scene s = synth::make_conveyor_scene();
+// The chapter's point-to-point experiment from the identity (README, Warnings).
+AlignSettings chapter_point_to_point() {
   AlignSettings settings;
   settings.init = InitPolicy::kIdentity;
   settings.refine.rejection = RejectionRule::median(2.5, 0.5);
   settings.refine.method = IcpMethod::kPointToPoint;
+  return settings;
+}
+
+TEST(AlignWarnings, IterationCapIsNotConvergence) {
+  const synth::Scene s = synth::make_conveyor_scene();
+  AlignSettings settings = chapter_point_to_point();
   settings.refine.termination.max_iterations = 2;
   const AlignResult r = align(s.scan, s.model, settings);
   EXPECT_TRUE(has_warning(r, "not_converged")) << codes(r);
@@ -278,10 +284,7 @@ TEST(AlignWarnings, IterationCapIsNotConvergence) {
 // from the same start reaches its stationary point.
 TEST(AlignWarnings, CreepingRunStoppedShort) {
   const synth::Scene s = synth::make_conveyor_scene();
-  AlignSettings settings;
-  settings.init = InitPolicy::kIdentity;
-  settings.refine.rejection = RejectionRule::median(2.5, 0.5);
-  settings.refine.method = IcpMethod::kPointToPoint;
+  AlignSettings settings = chapter_point_to_point();
   const AlignResult creeping = align(s.scan, s.model, settings);
   EXPECT_TRUE(has_warning(creeping, "stopped_short")) << codes(creeping);
   EXPECT_GT(creeping.refine.icp.pending_sigmas, kStoppedShortSigmas);

@@ -94,6 +94,29 @@ double yaw_deg(const Eigen::Isometry3d& T) {
   return rad_to_deg(std::atan2(x.y(), x.x()));
 }
 
+// Reported: a plane's two translations and the turn about its normal (z).
+void expect_plane_directions(const IcpResult& r) {
+  ASSERT_EQ(r.degenerate_directions.size(), 3u);
+  Eigen::Vector3d rot = Eigen::Vector3d::Zero(), trans = Eigen::Vector3d::Zero();
+  for (const auto& w : r.degenerate_directions) {
+    rot += w.rotation.cwiseAbs2();
+    trans += w.translation.cwiseAbs2();
+  }
+  EXPECT_NEAR(rot.z(), 1.0, 1e-3);
+  EXPECT_NEAR(trans.x() + trans.y(), 2.0, 1e-3);
+}
+
+// The tilt and the height off the plane (z = 0) removed, a 5° yaw and the in-plane shift of
+// `free_part` kept.
+void expect_held_directions_fixed(const IcpResult& r, const Eigen::Isometry3d& free_part) {
+  const Eigen::Isometry3d& T = r.T_target_source;
+  EXPECT_LT(std::acos(std::min(1.0, (T.linear() * Eigen::Vector3d::UnitZ()).z())),
+            deg_to_rad(0.01));
+  EXPECT_LT(std::abs(T.translation().z()), 0.01);
+  EXPECT_NEAR(yaw_deg(T), 5.0, 0.01);
+  EXPECT_LT((T.translation() - free_part.translation()).head<2>().norm(), 0.1);
+}
+
 // Started off only along the free directions, the pose must stay put: without the guard the noise
 // in the normals pulls it millimetres away along the plane.
 TEST(Degeneracy, SinglePlaneStartedAlongTheFreeDirectionsStaysPut) {
@@ -102,15 +125,7 @@ TEST(Degeneracy, SinglePlaneStartedAlongTheFreeDirectionsStaysPut) {
   const Eigen::Isometry3d& T = o.result.T_target_source;
   EXPECT_LT((T.translation() - start.translation()).norm(), 0.01);
   EXPECT_LT(test::rotation_error_deg(T, start), 0.005);
-  // Reported: two translations in the plane and the turn about its normal.
-  ASSERT_EQ(o.result.degenerate_directions.size(), 3u);
-  Eigen::Vector3d rot = Eigen::Vector3d::Zero(), trans = Eigen::Vector3d::Zero();
-  for (const auto& w : o.result.degenerate_directions) {
-    rot += w.rotation.cwiseAbs2();
-    trans += w.translation.cwiseAbs2();
-  }
-  EXPECT_NEAR(rot.z(), 1.0, 1e-3);
-  EXPECT_NEAR(trans.x() + trans.y(), 2.0, 1e-3);
+  expect_plane_directions(o.result);
 }
 
 // With a tilt and a height error as well, those are removed and the yaw is kept. (The in-plane
@@ -120,13 +135,8 @@ TEST(Degeneracy, SinglePlaneFixesTiltAndHeightAndKeepsTheYaw) {
   const Eigen::Isometry3d free_part = rigid_transform(5, {0, 0, 1}, {4, -3, 0});
   const Eigen::Isometry3d offset = rigid_transform(2, {1, 0.5, 0}, {0, 0, 1.5}) * free_part;
   const Outcome o = run(on_plane, offset);
-  const Eigen::Isometry3d& T = o.result.T_target_source;
-  EXPECT_LT(std::acos(std::min(1.0, (T.linear() * Eigen::Vector3d::UnitZ()).z())),
-            deg_to_rad(0.01));
-  EXPECT_LT(std::abs(T.translation().z()), 0.01);
-  EXPECT_NEAR(yaw_deg(T), 5.0, 0.01);
-  EXPECT_LT((T.translation() - free_part.translation()).head<2>().norm(), 0.1);
-  EXPECT_EQ(o.result.degenerate_directions.size(), 3u);
+  expect_held_directions_fixed(o.result, free_part);
+  expect_plane_directions(o.result);
 }
 
 // Point-to-point's closed-form step analyses no system, but onto the target's surface (tangent
@@ -134,20 +144,8 @@ TEST(Degeneracy, SinglePlaneFixesTiltAndHeightAndKeepsTheYaw) {
 // the step removes the tilt and the height without moving along the plane, and point-to-plane's
 // system of its pairs reports the three free directions.
 void expect_point_to_point_on_plane(const IcpResult& r, const Eigen::Isometry3d& free_part) {
-  const Eigen::Isometry3d& T = r.T_target_source;
-  EXPECT_LT(std::acos(std::min(1.0, (T.linear() * Eigen::Vector3d::UnitZ()).z())),
-            deg_to_rad(0.01));
-  EXPECT_LT(std::abs(T.translation().z()), 0.01);
-  EXPECT_NEAR(yaw_deg(T), 5.0, 0.01);
-  EXPECT_LT((T.translation() - free_part.translation()).head<2>().norm(), 0.1);
-  ASSERT_EQ(r.degenerate_directions.size(), 3u);
-  Eigen::Vector3d rot = Eigen::Vector3d::Zero(), trans = Eigen::Vector3d::Zero();
-  for (const auto& w : r.degenerate_directions) {
-    rot += w.rotation.cwiseAbs2();
-    trans += w.translation.cwiseAbs2();
-  }
-  EXPECT_NEAR(rot.z(), 1.0, 1e-3);
-  EXPECT_NEAR(trans.x() + trans.y(), 2.0, 1e-3);
+  expect_held_directions_fixed(r, free_part);
+  expect_plane_directions(r);
 }
 
 TEST(Degeneracy, PointToPointOntoTangentPlanesReportsThePlanesFreeDirections) {

@@ -483,19 +483,25 @@ TEST(IcpReciprocity, SetsAsideTheOverhangThatDragsPointToPointOffTheRim) {
   EXPECT_DOUBLE_EQ(a.rms, b.rms);
 }
 
+// Two random samplings (σ = 0.02) of one bumpy patch, the target with normals; the truth is the
+// identity, the start 1° and 0.3 off it.
+class IcpTangentPlanes : public ::testing::Test {
+ protected:
+  IcpTangentPlanes() { estimate_normals(target, NormalSettings{}); }
+  Random rng{3};
+  PointCloud target = bumpy_patch(30, 3000, rng);
+  const PointCloud source = bumpy_patch(30, 3000, rng);
+  const KdTree tree{target.positions};
+  const Eigen::Isometry3d start = rigid_transform(1.0, {1, 2, 3}, {0.3, -0.2, 0.1});
+};
+
 // Point-to-point onto tangent planes (IcpSettings::tangent_planes): two random samplings (σ = 0.02)
 // of one bumpy patch, the truth the identity, from 1° and 0.3 off, run to a standstill. Paired
 // sample to sample, point-to-point stops where the pairs' offsets along the surface balance, off
 // the truth (measured 0.17°, 0.09); paired with the feet it stops at point-to-plane's stationary
 // point (icp.hpp: the same normal equations), which the noise sets (0.013°, 0.009), with its RMS.
-TEST(IcpTangentPlanes, PointToPointStopsWherePointToPlaneDoes) {
-  Random rng(3);
-  PointCloud target = bumpy_patch(30, 3000, rng);
-  const PointCloud source = bumpy_patch(30, 3000, rng);
-  estimate_normals(target, NormalSettings{});
-  const KdTree tree(target.positions);
+TEST_F(IcpTangentPlanes, PointToPointStopsWherePointToPlaneDoes) {
   const Eigen::Isometry3d truth = Eigen::Isometry3d::Identity();
-  const Eigen::Isometry3d start = rigid_transform(1.0, {1, 2, 3}, {0.3, -0.2, 0.1});
   IcpSettings samples;
   samples.method = IcpMethod::kPointToPoint;
   samples.rejection = RejectionRule::max_distance(2.0);
@@ -530,13 +536,7 @@ TEST(IcpTangentPlanes, PointToPointStopsWherePointToPlaneDoes) {
 // distance to that point (point-to-plane run to a standstill, the same normal equations:
 // IcpTangentPlanes above) in the same units; run to a standstill it and point-to-plane report a
 // small fraction of a standard deviation.
-TEST(IcpTangentPlanes, PendingStepMeasuresTheDistanceLeftToTheStationaryPoint) {
-  Random rng(3);
-  PointCloud target = bumpy_patch(30, 3000, rng);
-  const PointCloud source = bumpy_patch(30, 3000, rng);
-  estimate_normals(target, NormalSettings{});
-  const KdTree tree(target.positions);
-  const Eigen::Isometry3d start = rigid_transform(1.0, {1, 2, 3}, {0.3, -0.2, 0.1});
+TEST_F(IcpTangentPlanes, PendingStepMeasuresTheDistanceLeftToTheStationaryPoint) {
   IcpSettings feet;
   feet.method = IcpMethod::kPointToPoint;
   feet.tangent_planes = true;
