@@ -89,7 +89,8 @@ struct IcpResult {
   // With the covariance: the length, in its standard deviations (Mahalanobis), of the update the
   // run would apply next (for point-to-point onto a mesh or tangent planes, point-to-plane's
   // Gauss-Newton step toward the stationary point of the same distances). Far below 1 at a
-  // stationary point; above 1 the run stopped short and the covariance understates the error.
+  // stationary point; above, the run stopped about that far short of it and the covariance
+  // understates the error (align() warns stopped_short above kStoppedShortSigmas, align.hpp).
   double pending_sigmas = 0;
 };
 
