@@ -128,14 +128,6 @@ PointCloud noisy_sample(int n, Random& rng, double sigma, const Draw& draw) {
   return c;
 }
 
-// (rotation vector, translation) of T: ξ with T = exp(ξ) in se3.hpp's convention.
-Vector6d twist_of(const Eigen::Isometry3d& T) {
-  const Eigen::AngleAxisd aa(T.linear());
-  Vector6d xi;
-  xi << aa.angle() * aa.axis(), T.translation();
-  return xi;
-}
-
 class Methods : public ::testing::TestWithParam<IcpMethod> {};
 
 // From 10° and 8 % of the diagonal off, every method reaches the truth (the identity: source and
@@ -188,7 +180,7 @@ Calibration calibrate(IcpMethod method, const Draw& draw, const std::vector<Vect
     RefineSettings s;
     s.method = method;
     const RefineResult r = refine(source, target, Eigen::Isometry3d::Identity(), s);
-    const Eigen::VectorXd xi = basis.transpose() * twist_of(r.icp.T_target_source);
+    const Eigen::VectorXd xi = basis.transpose() * se3_log(r.icp.T_target_source);
     const Eigen::MatrixXd cov = basis.transpose() * r.icp.covariance * basis;
     c.mean_nees += xi.dot(cov.ldlt().solve(xi)) / runs;
     c.last_covariance = r.icp.covariance;
@@ -266,7 +258,7 @@ TEST_P(RangeScans, CovarianceOfTwoRenderedViews) {
     const Eigen::Isometry3d start =
         rigid_transform(1.0, Eigen::Vector3d(1, 2, 3), Eigen::Vector3d(1, 0, 0)) * truth;
     const RefineResult r = refine(v.views[1].valid_points(), v.views[0].valid_points(), start, s);
-    errors.push_back(twist_of(r.icp.T_target_source * truth.inverse()));
+    errors.push_back(se3_log(r.icp.T_target_source * truth.inverse()));
     covariances.push_back(r.icp.covariance);
   }
   Vector6d mean = Vector6d::Zero();

@@ -555,9 +555,7 @@ TEST_F(IcpTangentPlanes, PendingStepMeasuresTheDistanceLeftToTheStationaryPoint)
   const IcpResult early = icp(source, target, tree, start, feet);
   ASSERT_TRUE(early.converged);
   const Eigen::Isometry3d left = still.T_target_source * early.T_target_source.inverse();
-  const Eigen::AngleAxisd turn(left.linear());
-  Vector6d xi;
-  xi << turn.angle() * turn.axis(), left.translation();
+  const Vector6d xi = se3_log(left);
   const double distance = std::sqrt(xi.dot(early.covariance.ldlt().solve(xi)));
   std::printf("stopped after %d updates, %.2f sigmas from the stationary point, %.2f pending\n",
               early.iterations, distance, early.pending_sigmas);

@@ -69,6 +69,17 @@ TEST(Se3, Se3ExpIsRotationAboutTheOriginThenTranslation) {
   EXPECT_LT((T * p - (so3_exp(twist.head<3>()) * p + twist.tail<3>())).norm(), 1e-13);
 }
 
+// se3_log inverts se3_exp for rotations below π, and gives the zero twist for the identity.
+TEST(Se3, Se3LogInvertsSe3Exp) {
+  Random rng(304);
+  for (int k = 0; k < 20; ++k) {
+    Vector6d twist;
+    twist << random_vector(rng, -1.5, 1.5), random_vector(rng, -10, 10);
+    EXPECT_LT((se3_log(se3_exp(twist)) - twist).norm(), 1e-12) << twist.transpose();
+  }
+  EXPECT_EQ(se3_log(Eigen::Isometry3d::Identity()), Vector6d::Zero());
+}
+
 TEST(Se3, RotationAngleIsAccurateNearZeroHalfPiAndPi) {
   // Rotations built from a known angle; the atan2 form keeps the angle to ~1e-15 absolute
   // everywhere (acos loses half the digits near 0 and π).

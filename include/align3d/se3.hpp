@@ -35,6 +35,14 @@ inline Eigen::Isometry3d se3_exp(const Vector6d& twist) {
   return T;
 }
 
+// The inverse of se3_exp: (rotation vector of R, t) for T = [R | t], the angle in [0, π].
+inline Vector6d se3_log(const Eigen::Isometry3d& T) {
+  const Eigen::AngleAxisd turn(T.linear());
+  Vector6d twist;
+  twist << turn.angle() * turn.axis(), T.translation();
+  return twist;
+}
+
 // The adjoint of T = [R, t] for twists (ω, v) acting as x ↦ x + ω × x + v (se3_exp):
 // T·exp(ξ)·T⁻¹ = exp(Ad(T)·ξ), Ad(T) = [[R, 0], [[t]× R, R]]. Carries a covariance of a left
 // perturbation from one frame to another (Cov' = Ad Cov Adᵀ).

@@ -82,11 +82,10 @@ Eigen::Vector3d centre_of(const MeshIndex& surface) {
 // The length of the left perturbation Δ (Δ·T) in the standard deviations of `covariance`; 0 when
 // that is zero or singular.
 double mahalanobis(const Eigen::Isometry3d& delta, const Matrix6d& covariance) {
-  const Eigen::AngleAxisd turn(delta.linear());
-  Vector6d xi;
-  xi << turn.angle() * turn.axis(), delta.translation();
+  if (covariance.isZero()) return 0;
   const Eigen::LDLT<Matrix6d> ldlt(covariance);
-  if (covariance.isZero() || ldlt.info() != Eigen::Success || !ldlt.isPositive()) return 0;
+  if (ldlt.info() != Eigen::Success || !ldlt.isPositive()) return 0;
+  const Vector6d xi = se3_log(delta);
   const double m2 = xi.dot(ldlt.solve(xi));
   return std::isfinite(m2) && m2 > 0 ? std::sqrt(m2) : 0.0;
 }
