@@ -56,14 +56,14 @@ std::vector<Warning> weaknesses(const RefineResult& r, const Support& s) {
 }
 
 // A warning when ICP stopped short of its stationary point (IcpResult::pending_sigmas): the pose
-// is right but less precise than its covariance says, which no other start or stage would change,
-// so it does not make an answer weak.
+// is right but less precise than the data allow (its covariance takes the shortfall in), which no
+// other start or stage would change, so it does not make an answer weak.
 std::optional<Warning> stopped_short(const IcpResult& icp) {
   if (!(icp.pending_sigmas > kStoppedShortSigmas)) return std::nullopt;
   return Warning{"stopped_short",
                  "ICP stopped " + fixed(icp.pending_sigmas, 1) +
                      " standard deviations of its covariance short of its stationary point; the "
-                     "pose error may exceed the covariance (a lower --tolerance with more "
+                     "covariance includes that distance (a lower --tolerance with more "
                      "--max-iterations goes further; point-to-plane converges in fewer steps)"};
 }
 

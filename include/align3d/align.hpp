@@ -106,10 +106,11 @@ struct AlignResult {
   // when `reversed`).
   RefineResult refine;
   bool reversed = false;
-  // The 6×6 covariance of `transformation` (icp/solver.hpp, pose_covariance): rotation (radians)
-  // then translation, for T ← exp(ξ)·T about the target frame's origin (se3.hpp); carried over
-  // from the reversed run when `reversed`. The accuracy of a correct convergence only: a wrong
-  // minimum is not covered (the warnings are).
+  // The 6×6 covariance of `transformation` (icp.hpp, IcpResult::covariance: the noise's part,
+  // point-to-plane's model error, the step not taken): rotation (radians) then translation, for
+  // T ← exp(ξ)·T about the target frame's origin (se3.hpp); carried over from the reversed run
+  // when `reversed`. The accuracy of a correct convergence only: a wrong minimum is not covered
+  // (the warnings are).
   Matrix6d covariance = Matrix6d::Zero();
   std::optional<GlobalResult> global;      // when the global stage ran
   Support support;                         // of the kept answer

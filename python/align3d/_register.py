@@ -172,14 +172,16 @@ class Result(_Report):
     @property
     def covariance(self) -> np.ndarray:
         """6x6 float64 covariance of ``transformation``: rotation (radians) then translation, for
-        T ← exp(ξ)·T about the target frame's origin (docs/report.md, ``covariance``). The
-        accuracy of a correct convergence only; a wrong minimum is flagged by the warnings."""
+        T ← exp(ξ)·T about the target frame's origin (docs/report.md, ``covariance``: the noise,
+        point-to-plane's model error, the step ICP did not take). The accuracy of a correct
+        convergence only; a wrong minimum is flagged by the warnings."""
         return np.array(self._report["covariance"], dtype=np.float64)
 
     @property
     def pending_sigmas(self) -> float:
-        """The length of ICP's next update in standard deviations of ``covariance``: far below 1
-        at a stationary point, above 2 warned as ``stopped_short`` (docs/report.md)."""
+        """The length of ICP's next update in standard deviations of ``covariance`` (without that
+        update's own term): far below 1 at a stationary point, above 2 warned as
+        ``stopped_short`` (docs/report.md)."""
         return float(self._report["pending_sigmas"])
 
     @property

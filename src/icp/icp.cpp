@@ -69,6 +69,15 @@ struct Target {
   const MeshIndex* surface = nullptr;
 };
 
+// Whether the covariance takes in the tangent planes' model error (IcpResult::model_error): a
+// point-to-plane residual onto a point cloud's tangent planes (point-to-point's too with
+// tangent_planes) and a source with normals for the symmetric step that measures it.
+bool measures_model_error(const PointCloud& source, const Target& target, const IcpSettings& s) {
+  const bool planes = s.method == IcpMethod::kPointToPlane ||
+                      (s.method == IcpMethod::kPointToPoint && s.tangent_planes);
+  return s.covariance && planes && target.cloud && source.has_normals();
+}
+
 // The centre of the target's box: the update's coordinates are taken about it (conditioning).
 Eigen::Vector3d centre_of(const MeshIndex& surface) {
   Eigen::Vector3d lo = surface.mesh().vertices[0], hi = lo;
@@ -79,13 +88,12 @@ Eigen::Vector3d centre_of(const MeshIndex& surface) {
   return 0.5 * (lo + hi);
 }
 
-// The length of the left perturbation Δ (Δ·T) in the standard deviations of `covariance`; 0 when
-// that is zero or singular.
-double mahalanobis(const Eigen::Isometry3d& delta, const Matrix6d& covariance) {
+// The length of the left perturbation ξ (exp(ξ)·T) in the standard deviations of `covariance`; 0
+// when that is zero or singular.
+double mahalanobis(const Vector6d& xi, const Matrix6d& covariance) {
   if (covariance.isZero()) return 0;
   const Eigen::LDLT<Matrix6d> ldlt(covariance);
   if (ldlt.info() != Eigen::Success || !ldlt.isPositive()) return 0;
-  const Vector6d xi = se3_log(delta);
   const double m2 = xi.dot(ldlt.solve(xi));
   return std::isfinite(m2) && m2 > 0 ? std::sqrt(m2) : 0.0;
 }
@@ -112,7 +120,7 @@ IcpResult run_icp(const PointCloud& source, const Target& target, const Eigen::I
   {
     const std::vector<std::uint32_t> order = spatial_order(source.positions);
     for (std::size_t k = 0; k < moving.size(); ++k) moving[k] = source.positions[order[k]];
-    if (needs_source_normals(s.method)) {
+    if (needs_source_normals(s.method) || measures_model_error(source, target, s)) {
       moving_normals.resize(source.size());
       for (std::size_t k = 0; k < moving.size(); ++k) moving_normals[k] = source.normals[order[k]];
     }
@@ -188,7 +196,19 @@ IcpResult run_icp(const PointCloud& source, const Target& target, const Eigen::I
   if (s.covariance) {
     result.covariance = pose_covariance(pairs(), {s.method, s.kernel, kernel_scale}, result.hessian,
                                         result.degenerate_directions, diagonal, s.threads);
-    result.pending_sigmas = mahalanobis(to_world * pending * to_world.inverse(), result.covariance);
+    const Vector6d left = se3_log(to_world * pending * to_world.inverse());  // the update not made
+    if (measures_model_error(source, target, s) &&
+        result.stop_reason != StopReason::kTooFewCorrespondences) {
+      const IcpStep model =
+          solve_step(pairs(), {IcpMethod::kSymmetric, s.kernel, kernel_scale}, s.threads);
+      if (model.solvable) {  // the two stationary points, each a Gauss-Newton step away
+        result.model_error = se3_log(to_world * model.delta * to_world.inverse()) - left;
+        result.covariance.noalias() += result.model_error * result.model_error.transpose();
+      }
+    }
+    // What the run did not reach is part of its error too (after measuring it against the rest).
+    result.pending_sigmas = mahalanobis(left, result.covariance);
+    result.covariance.noalias() += left * left.transpose();
   }
   result.fitness = source.empty() ? 0.0
                                   : static_cast<double>(result.correspondences) /

@@ -382,8 +382,16 @@ RefineResult refine(const PointCloud& given_source, RefineTarget& target,
         std::to_string(target.cloud().size()) + " points; " +
             (automatic ? std::string("refinement") : std::string(to_string(settings.method))) +
             " needs at least the normal neighbourhood k = " + std::to_string(target.normal_k()));
+  // The schedule's final stage onto a point cloud's tangent planes measures their model error with
+  // the symmetric step (IcpResult::model_error), which reads the source's normals (where it has a
+  // neighbourhood's worth of points).
+  const bool planes =
+      settings.method == IcpMethod::kPointToPlane || settings.method == IcpMethod::kPointToPoint;
+  const bool measured_planes = automatic && planes && !target.surface() &&
+                               given_source.size() >= static_cast<std::size_t>(settings.normals.k);
+  const IcpMethod normals_for = measured_planes ? IcpMethod::kSymmetric : settings.method;
   PointCloud copy;
-  const PointCloud& source = with_normals(given_source, settings.method, settings, copy);
+  const PointCloud& source = with_normals(given_source, normals_for, settings, copy);
   auto unrecorded = [&](const PointCloud& from, const Eigen::Isometry3d& T, const IcpSettings& s) {
     IcpResult r = target.surface() ? icp(from, *target.surface(), T, s)
                   : normals        ? icp(from, *normals, T, s)

@@ -90,10 +90,11 @@
 // reports how far it stopped short (IcpResult::pending_sigmas, 20 standard deviations there:
 // align() warns stopped_short above 2). Through this schedule, whose coarse stages start it
 // close, the same scene (`align3d synth --scene parts --points 1000000`, register with
-// --method point-to-point) ends 0.0001° and 0.0009 mm off, 1.2 σ short (point-to-plane 0.0001°
-// and 0.0007 mm; NEES of the one run 11 and 9.6). Anderson acceleration (AA-ICP) of the
-// closed-form step, tried with depths 2-8, cut the iterations at 1M to 17 with an erratic accuracy
-// (NEES 7-72 by depth) and did nothing on the evaluation scenes: not kept.
+// --method point-to-point) ends 0.0001° and 0.0008 mm off, 1.0 σ short (point-to-plane 0.0001°
+// and 0.0007 mm; NEES of the one run 6.6 and 7.4, with the model error: icp.hpp). Anderson
+// acceleration (AA-ICP) of the closed-form step, tried with depths 2-8, cut the iterations at 1M
+// to 17 with an erratic accuracy (NEES 7-72 by depth) and did nothing on the evaluation scenes:
+// not kept.
 //
 // Why the GICP candidate (issue 18): two range scans that each see a side the other does not, of
 // a curved object with thin parts (evaluation_scenes()'s animal, 61 % overlap). The unshared points

@@ -78,9 +78,9 @@ IcpStep solve_step(const StepInput& in, const StepCost& cost, int threads);
 // `cost.kernel_scale` must be the step's (IcpStep::kernel_scale). Zero with fewer pairs than the
 // method needs. Point-to-point onto tangent planes (tangent_planes) stops where point-to-plane does
 // and gets point-to-plane's covariance. Not for point-to-point's error on two samplings of a
-// surface paired sample to sample, which is a bias from the pairing, not noise; nor for
-// point-to-plane's bias between two range scans (about one σ: tests/icp_methods_test.cpp,
-// Covariance/RangeScans), where GICP and symmetric are calibrated.
+// surface paired sample to sample, which is a bias from the pairing, not noise. The noise's part
+// only: the loop adds point-to-plane's model error and the step it did not take (icp.hpp,
+// IcpResult::covariance).
 Matrix6d pose_covariance(const StepInput& in, const StepCost& cost, const Matrix6d& hessian,
                          const std::vector<WeakDirection>& weak, double free_sigma, int threads);
 
