@@ -70,12 +70,12 @@ struct Target {
 };
 
 // Whether the covariance takes in the tangent planes' model error (IcpResult::model_error): a
-// point-to-plane residual onto a point cloud's tangent planes (point-to-point's too with
-// tangent_planes) and a source with normals for the symmetric step that measures it.
+// residual onto a point cloud's tangent planes alone (point-to-plane; point-to-point with
+// tangent_planes), not both clouds' normals, and a source with normals for the symmetric step that
+// measures it.
 bool measures_model_error(const PointCloud& source, const Target& target, const IcpSettings& s) {
-  const bool planes = s.method == IcpMethod::kPointToPlane ||
-                      (s.method == IcpMethod::kPointToPoint && s.tangent_planes);
-  return s.covariance && planes && target.cloud && source.has_normals();
+  return s.covariance && reads_target_normals(s) && !needs_source_normals(s.method) &&
+         target.cloud && source.has_normals();
 }
 
 // The centre of the target's box: the update's coordinates are taken about it (conditioning).

@@ -382,12 +382,12 @@ RefineResult refine(const PointCloud& given_source, RefineTarget& target,
         std::to_string(target.cloud().size()) + " points; " +
             (automatic ? std::string("refinement") : std::string(to_string(settings.method))) +
             " needs at least the normal neighbourhood k = " + std::to_string(target.normal_k()));
-  // The schedule's final stage onto a point cloud's tangent planes measures their model error with
-  // the symmetric step (IcpResult::model_error), which reads the source's normals (where it has a
+  // The schedule's final stage onto a point cloud's tangent planes (point-to-plane, point-to-point:
+  // the methods that do not read the source's normals themselves) measures their model error with
+  // the symmetric step (IcpResult::model_error), which reads them (where the source has a
   // neighbourhood's worth of points).
-  const bool planes =
-      settings.method == IcpMethod::kPointToPlane || settings.method == IcpMethod::kPointToPoint;
-  const bool measured_planes = automatic && planes && !target.surface() &&
+  const bool measured_planes = automatic && !needs_source_normals(settings.method) &&
+                               !target.surface() &&
                                given_source.size() >= static_cast<std::size_t>(settings.normals.k);
   const IcpMethod normals_for = measured_planes ? IcpMethod::kSymmetric : settings.method;
   PointCloud copy;

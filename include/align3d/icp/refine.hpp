@@ -22,10 +22,9 @@
 //      from the pose moved along the direction their last system constrains least (Gelfand et al.
 //      2003: a near-symmetry, where ICP's pairs exert almost no pull) by ±kHopStep (a turn of 29°),
 //      then ±2 kHopStep (57°) and ±3 kHopStep (86°) while none is clearly better; a start is kept
-//      when it lays
-//      kClearlyBetter more of the source within max(3 s, 4 σ₀) of the target (a reach of the
-//      data's noise, whatever the candidates' RMS). From a
-//      kept pose still unconfirmed the hops go on, at most kHopChain times. If the pose is still
+//      when it lays kClearlyBetter more of the source within max(3 s, 4 σ₀) of the target (a reach
+//      of the data's noise, whatever the candidates' RMS). From a kept pose still unconfirmed the
+//      hops go on, at most kHopChain times. If the pose is still
 //      unconfirmed after them, GICP's coarse stages from the start are one more candidate (the
 //      source's normals are estimated for it), kept on the same test, and the hops from it
 //      rerun GICP's stages;
