@@ -228,6 +228,27 @@ struct NearestResult {
   }
 };
 
+// The nearest and the second nearest distance: worst() is the second's, so the search visits every
+// cell that could hold a point nearer than it. The nearest is replaced only by a strictly nearer
+// point, as in NearestResult, and the cells that search visits are among these, in the same order:
+// the same nearest point, ties included.
+struct NearestTwoResult {
+  double sq_best, sq_second;
+  std::uint32_t index = 0;
+  bool found = false;
+  double worst() const { return sq_second; }
+  void add(double sq_d, std::uint32_t k) {
+    if (sq_d < sq_best) {
+      sq_second = sq_best;
+      sq_best = sq_d;
+      index = k;
+      found = true;
+    } else {
+      sq_second = sq_d;
+    }
+  }
+};
+
 // The k best so far, sorted, in caller-provided storage of k entries (insertion: k is small, and
 // after the first leaves few points beat the k-th).
 struct KnnResult {
@@ -319,6 +340,16 @@ const std::vector<std::uint32_t>& KdTree::leaf_order() const { return impl_->ori
 bool KdTree::nearest(const Eigen::Vector3d& query, Neighbor& out, double sq_max_distance) const {
   NearestResult result{sq_max_distance};
   impl_->search(query, result);
+  if (!result.found) return false;
+  out = {impl_->original[result.index], result.sq_best};
+  return true;
+}
+
+bool KdTree::nearest_two(const Eigen::Vector3d& query, Neighbor& out, double& sq_second,
+                         double sq_max_distance) const {
+  NearestTwoResult result{sq_max_distance, sq_max_distance};
+  impl_->search(query, result);
+  sq_second = result.sq_second;
   if (!result.found) return false;
   out = {impl_->original[result.index], result.sq_best};
   return true;

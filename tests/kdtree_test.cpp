@@ -211,6 +211,38 @@ TEST(KdTree, BoundedNearestOnExactGridDistances) {
   EXPECT_EQ(nb.sq_distance, 1.0);
 }
 
+// nearest_two: the same point as nearest() (on a grid of exact ties too, where the tie is broken
+// by the search's order), and the second smallest squared distance by brute force, or the bound
+// when no other point lies strictly within it; with and without a bound.
+TEST(KdTree, NearestTwoGivesNearestsPointAndTheNextDistance) {
+  Random rng(17);
+  std::vector<Eigen::Vector3d> points = random_points(2000, rng);
+  for (int x = 0; x < 6; ++x)
+    for (int y = 0; y < 6; ++y)
+      for (int z = 0; z < 3; ++z) points.emplace_back(2 + x, y, z);  // integer grid: exact ties
+  points.push_back(points[5]);                                       // a duplicate
+  const KdTree tree(points);
+  std::vector<Eigen::Vector3d> queries = queries_for(points, rng);
+  for (int k = 0; k < 200; ++k)  // grid midpoints: several points at exactly the same distance
+    queries.emplace_back(2.5 + k % 5, 0.5 * (k % 11), 0.5 * (k % 5));
+  int ties = 0;
+  for (const double bound : {kInf, 0.01, 0.3})
+    for (const Eigen::Vector3d& q : queries) {
+      const std::vector<double> d = brute_sorted_sq_distances(points, q);
+      Neighbor one, two;
+      double sq_second = -1;
+      const bool found = tree.nearest(q, one, bound);
+      ASSERT_EQ(tree.nearest_two(q, two, sq_second, bound), found);
+      const double expected_second = d[1] < bound ? d[1] : bound;
+      EXPECT_EQ(sq_second, expected_second) << q.transpose() << " bound " << bound;
+      if (!found) continue;
+      EXPECT_EQ(two.index, one.index) << q.transpose() << " bound " << bound;
+      EXPECT_EQ(two.sq_distance, d[0]);
+      ties += d[1] == d[0];
+    }
+  EXPECT_GT(ties, 100);  // the tie-breaking was exercised
+}
+
 TEST(KdTree, RadiusIncludesPointsExactlyOnTheRadius) {
   // kdtree.hpp documents radius() as "squared distance <= sq_radius". On an integer grid the six
   // axis neighbours of the origin are at squared distance exactly 1, so with sq_radius = 1 the

@@ -41,6 +41,13 @@ class KdTree {
   bool nearest(const Eigen::Vector3d& query, Neighbor& out,
                double sq_max_distance = std::numeric_limits<double>::infinity()) const;
 
+  // The same nearest point as nearest() (ties included), and in sq_second the squared distance of
+  // the next nearest, or sq_max_distance when no other point lies within it: every other point
+  // lies at least that far. A query moved by less than half the difference of the two distances
+  // keeps its nearest (the triangle inequality; stitch/multiview_icp.cpp).
+  bool nearest_two(const Eigen::Vector3d& query, Neighbor& out, double& sq_second,
+                   double sq_max_distance = std::numeric_limits<double>::infinity()) const;
+
   // The min(k, size()) nearest points, closest first, written into `out` (resized).
   void knn(const Eigen::Vector3d& query, std::size_t k, std::vector<Neighbor>& out) const;
 
