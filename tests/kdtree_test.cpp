@@ -214,7 +214,7 @@ TEST(KdTree, BoundedNearestOnExactGridDistances) {
 // nearest_two: the same point as nearest() (on a grid of exact ties too, where the tie is broken
 // by the search's order), and the second smallest squared distance by brute force, or the bound
 // when no other point lies strictly within it; with and without a bound.
-TEST(KdTree, NearestTwoGivesNearestsPointAndTheNextDistance) {
+TEST(KdTree, NearestTwoGivesTheNearestPointAndTheNextDistance) {
   Random rng(17);
   std::vector<Eigen::Vector3d> points = random_points(2000, rng);
   for (int x = 0; x < 6; ++x)

@@ -54,6 +54,11 @@ struct LinkMemory {
 
 constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
 
+// A search's slack (LinkMemory): half the gap between its nearest's distance and the next one's.
+double slack(const Neighbor& nearest, double sq_second) {
+  return (std::sqrt(sq_second) - std::sqrt(nearest.sq_distance)) / 2;
+}
+
 struct Pass {
   const std::vector<MultiviewScan>& scans;
   const std::vector<Eigen::Isometry3d>& poses;
@@ -99,14 +104,14 @@ struct Pass {
     const std::size_t n = sa.sample.size();
     std::vector<Eigen::Vector3d> in_b(n);
     std::vector<std::uint32_t> partner(n, kNone);
-    std::vector<double> slack(n);
+    std::vector<double> gap(n);
     parallel_for(n, settings.threads, [&](std::size_t i) {
       in_b[i] = m.a_in_b * sa.cloud->positions[sa.sample[i]];
       Neighbor nb;
       double sq_second = 0;
       if (!scans[b].tree->nearest_two(in_b[i], nb, sq_second, sq_wide)) return;
       partner[i] = static_cast<std::uint32_t>(nb.index);
-      slack[i] = (std::sqrt(sq_second) - std::sqrt(nb.sq_distance)) / 2;
+      gap[i] = slack(nb, sq_second);
     });
     Eigen::Vector3d sum = Eigen::Vector3d::Zero();
     for (std::size_t i = 0; i < n; ++i) {
@@ -117,7 +122,7 @@ struct Pass {
       m.partner_points.push_back(scans[b].cloud->positions[partner[i]]);
       m.partner_normals.push_back(scans[b].cloud->normals[partner[i]]);
       m.searched_at.push_back(in_b[i]);
-      m.slack.push_back(slack[i]);
+      m.slack.push_back(gap[i]);
     }
     if (n > 0) m.centre = sum / static_cast<double>(n);
     for (const Eigen::Vector3d& y : in_b) m.radius = std::max(m.radius, (y - m.centre).norm());
@@ -162,7 +167,7 @@ struct Pass {
               m.partner_normals[k] = sb.cloud->normals[nb.index];
             }
             m.searched_at[k] = q;
-            m.slack[k] = (std::sqrt(sq_second) - std::sqrt(nb.sq_distance)) / 2;
+            m.slack[k] = slack(nb, sq_second);
           }
           // The squared distance as the tree's leaf scan computes it.
           const Eigen::Vector3d& y = m.partner_points[k];

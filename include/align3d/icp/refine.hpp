@@ -24,10 +24,9 @@
 //      then ±2 kHopStep (57°) and ±3 kHopStep (86°) while none is clearly better; a start is kept
 //      when it lays kClearlyBetter more of the source within max(3 s, 4 σ₀) of the target (a reach
 //      of the data's noise, whatever the candidates' RMS). From a kept pose still unconfirmed the
-//      hops go on, at most kHopChain times. If the pose is still
-//      unconfirmed after them, GICP's coarse stages from the start are one more candidate (the
-//      source's normals are estimated for it), kept on the same test, and the hops from it
-//      rerun GICP's stages;
+//      hops go on, at most kHopChain times. If the pose is still unconfirmed after them, GICP's
+//      coarse stages from the start are one more candidate (the source's normals are estimated
+//      for it), kept on the same test, and the hops from it rerun GICP's stages;
 //   4. the requested metric runs to convergence with τ = max(3 s, 4 σ̂), still weighted; onto a
 //      point cloud, a pair longer than s/2 enters the update only when it is the shortest pair of
 //      its target point (IcpSettings::reciprocity, 1; below), and point-to-point pairs each
