@@ -15,6 +15,8 @@
 // scans of its group, that covers clearly more of it (its points on their surfaces at the noise)
 // and contradicts none of them: a near-symmetric view turned onto a look-alike face can fit one
 // neighbour better than the truth fits two, but its asymmetric details lie on no surface.
+// Last, the scans whose placement other candidates contest are named (Selection::ambiguous), alone
+// or as a part of the group turned as a whole.
 // The first scan's group gives the frame; scans no accepted join reaches stay apart.
 #pragma once
 
@@ -36,7 +38,9 @@ struct Selection {
   // Scans an alternative choice places elsewhere (by more than kAgreeDeg or kAgreeShare of the
   // diameter, relative to the first scan) while explaining nearly as many candidates (at least
   // kAmbiguousShare of the chosen score) and covering nearly as much of the scan (within
-  // kCoverGain): the data do not decide their poses. Ascending.
+  // kCoverGain); and the scans of a part of the group (beyond one join of the tree that joined
+  // it) that candidates across that join place elsewhere as a whole, as strongly, or nearly and
+  // contradicting nothing and covering as much: the data do not decide their poses. Ascending.
   std::vector<std::size_t> ambiguous;
   double score = 0;  // Σ score of the candidates that agree with the chosen poses
 };
