@@ -3,9 +3,11 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <memory>
 #include <numeric>
 #include <optional>
+#include <utility>
 
 #include "align3d/se3.hpp"
 #include "detail/parallel.hpp"
@@ -345,48 +347,45 @@ std::vector<char> far_side(const Context& x, const Selection& s,
   return far;
 }
 
-// The candidates between the near and the far side of a cut that agree with the far side moved
-// by G (into the group's frame): their summed scores (the best per pair of scans) and how many
-// pairs of scans they join.
+// Calls f(b, m, e) for each candidate e between a scan b beyond a cut and a scan m of the first
+// scan's group before it.
+template <class F>
+void for_each_across(const Context& x, const Selection& s, const std::vector<char>& far, F f) {
+  for (std::size_t b = 0; b < x.scans.size(); ++b)
+    for (std::size_t m = 0; far[b] && m < x.scans.size(); ++m)
+      if (!far[m] && s.group[m] == 0)
+        for (std::size_t e : x.index[b][m]) f(b, m, e);
+}
+
+// The candidates across a cut that agree with the far side moved by G (into the group's frame):
+// their summed scores (the best per pair of scans) and how many pairs of scans they join.
 Agreement cut_agreement(const Context& x, const Selection& s, const std::vector<char>& far,
                         const Eigen::Isometry3d& G) {
-  Agreement a;
-  for (std::size_t b = 0; b < x.scans.size(); ++b) {
-    if (!far[b]) continue;
-    for (std::size_t m = 0; m < x.scans.size(); ++m) {
-      if (far[m] || s.group[m] != 0) continue;
-      double best = 0;
-      for (std::size_t e : x.index[b][m])
-        if (x.same(b, s.poses[m] * from_to(x.candidates[e], b), G * s.poses[b]))
-          best = std::max(best, x.candidates[e].score);
-      a.score += best;
-      a.scans += best > 0;
+  std::map<std::pair<std::size_t, std::size_t>, double> best;
+  for_each_across(x, s, far, [&](std::size_t b, std::size_t m, std::size_t e) {
+    if (x.same(b, s.poses[m] * from_to(x.candidates[e], b), G * s.poses[b])) {
+      double& score = best[{b, m}];
+      score = std::max(score, x.candidates[e].score);
     }
-  }
+  });
+  Agreement a;
+  for (const auto& [_, score] : best) a.score += score, a.scans += score > 0;
   return a;
 }
 
 // The motions of the far side that the candidates across the cut give it, distinct (compared at
-// its first scan), not the identity.
+// its scan `first`), not the identity.
 std::vector<Eigen::Isometry3d> cut_placements(const Context& x, const Selection& s,
-                                              const std::vector<char>& far) {
-  const auto first = static_cast<std::size_t>(std::find(far.begin(), far.end(), 1) - far.begin());
+                                              const std::vector<char>& far, std::size_t first) {
   std::vector<Eigen::Isometry3d> out;
-  for (std::size_t b = 0; b < x.scans.size(); ++b) {
-    if (!far[b]) continue;
-    for (std::size_t m = 0; m < x.scans.size(); ++m) {
-      if (far[m] || s.group[m] != 0) continue;
-      for (std::size_t e : x.index[b][m]) {
-        const Eigen::Isometry3d G = s.poses[m] * from_to(x.candidates[e], b) * s.poses[b].inverse();
-        const Eigen::Isometry3d X = G * s.poses[first];
-        if (x.same(first, X, s.poses[first]) ||
-            std::any_of(out.begin(), out.end(),
-                        [&](const auto& H) { return x.same(first, X, H * s.poses[first]); }))
-          continue;
-        out.push_back(G);
-      }
-    }
-  }
+  for_each_across(x, s, far, [&](std::size_t b, std::size_t m, std::size_t e) {
+    const Eigen::Isometry3d G = s.poses[m] * from_to(x.candidates[e], b) * s.poses[b].inverse();
+    const Eigen::Isometry3d X = G * s.poses[first];
+    if (!x.same(first, X, s.poses[first]) &&
+        std::none_of(out.begin(), out.end(),
+                     [&](const auto& H) { return x.same(first, X, H * s.poses[first]); }))
+      out.push_back(G);
+  });
   return out;
 }
 
@@ -440,15 +439,15 @@ void find_ambiguous_parts(const Context& x, Selection& s, const std::vector<std:
     const auto first = static_cast<std::size_t>(std::find(far.begin(), far.end(), 1) - far.begin());
     std::optional<Surroundings> near;
     PartPlacement here;
-    for (const Eigen::Isometry3d& G : cut_placements(x, s, far)) {
+    for (const Eigen::Isometry3d& G : cut_placements(x, s, far, first)) {
       const Agreement other = cut_agreement(x, s, far, G);
       if (other.scans < std::min<std::size_t>(2, chosen.scans) ||
           other.score < kAmbiguousShare * chosen.score)
         continue;
       // Stronger than the chosen join, it is not refuted by a contradiction: a wrong scan inside
-      // the far side, moved with it, can be what contradicts (the ring above at 25°: view 4,
-      // turned by a quarter within views 1 to 4, 0.23 of it in front of view 0 at the truth of
-      // the others).
+      // the far side, moved with it, can be what contradicts (the ring above at 25°: with views
+      // 1 to 4 moved to where the pair 0–1 puts them, view 4, a quarter turned among them, lay
+      // 0.23 in front of what view 0 saw).
       if (other.score <= chosen.score || other.scans < chosen.scans) {
         double worst = 0;
         for (std::size_t b = 0; b < x.scans.size() && worst <= kMaxAmbiguousFreeSpace; ++b)
