@@ -31,7 +31,7 @@ def read_costs(path):
                 continue
     by_stem = {}
     for name, cost in costs.items():
-        stem = name.split("/(")[0] if "/(" in name else name
+        stem = name.split("/(")[0]
         by_stem.setdefault(stem, []).append(cost)
     return costs, {k: sum(v) / len(v) for k, v in by_stem.items()}
 

@@ -76,18 +76,32 @@ double contradiction(const Context& x, std::size_t a, std::size_t b, const Eigen
                            kJoinSamples);
 }
 
+// The worst free-space share between a scan `a_side` marks, where it lies, and one `b_side`
+// marks, moved by M (to M·s.poses[b]).
+double sides_contradiction(const Context& x, const Selection& s, const std::vector<char>& a_side,
+                           const std::vector<char>& b_side, const Eigen::Isometry3d& M) {
+  double worst = 0;
+  for (std::size_t a = 0; a < x.scans.size(); ++a) {
+    if (!a_side[a]) continue;
+    for (std::size_t b = 0; b < x.scans.size(); ++b)
+      if (b_side[b])
+        worst = std::max(worst, contradiction(x, a, b, (M * s.poses[b]).inverse() * s.poses[a]));
+  }
+  return worst;
+}
+
+// The scans of group g.
+std::vector<char> members(const Selection& s, std::size_t g) {
+  std::vector<char> in(s.group.size());
+  for (std::size_t k = 0; k < in.size(); ++k) in[k] = s.group[k] == g;
+  return in;
+}
+
 // The worst free-space share between a scan of group `ga` and one of group `gb` once M maps
 // gb's frame into ga's.
 double join_contradiction(const Context& x, const Selection& s, std::size_t ga, std::size_t gb,
                           const Eigen::Isometry3d& M) {
-  double worst = 0;
-  for (std::size_t a = 0; a < x.scans.size(); ++a) {
-    if (s.group[a] != ga) continue;
-    for (std::size_t b = 0; b < x.scans.size(); ++b)
-      if (s.group[b] == gb)
-        worst = std::max(worst, contradiction(x, a, b, (M * s.poses[b]).inverse() * s.poses[a]));
-  }
-  return worst;
+  return sides_contradiction(x, s, members(s, ga), members(s, gb), M);
 }
 
 // One Kruskal pass over `order` (candidate indices), skipping `forbidden` ones: the groups, the
@@ -434,7 +448,9 @@ void find_ambiguous_parts(const Context& x, Selection& s, const std::vector<std:
   for (std::size_t cut : joins) {
     const std::vector<char> far = far_side(x, s, joins, cut);
     const auto size = static_cast<std::size_t>(std::count(far.begin(), far.end(), 1));
-    if (size < 2) continue;  // one scan: find_ambiguous()
+    if (size < 2) continue;                       // one scan: find_ambiguous()
+    std::vector<char> before(x.scans.size(), 0);  // the rest of the first scan's group
+    for (std::size_t m = 0; m < x.scans.size(); ++m) before[m] = !far[m] && s.group[m] == 0;
     const Agreement chosen = cut_agreement(x, s, far, Eigen::Isometry3d::Identity());
     const auto first = static_cast<std::size_t>(std::find(far.begin(), far.end(), 1) - far.begin());
     std::optional<Surroundings> near;
@@ -449,17 +465,9 @@ void find_ambiguous_parts(const Context& x, Selection& s, const std::vector<std:
       // 1 to 4 moved to where the pair 0–1 puts them, view 4, a quarter turned among them, lay
       // 0.23 in front of what view 0 saw).
       if (other.score <= chosen.score || other.scans < chosen.scans) {
-        double worst = 0;
-        for (std::size_t b = 0; b < x.scans.size() && worst <= kMaxAmbiguousFreeSpace; ++b)
-          for (std::size_t m = 0; far[b] && m < x.scans.size(); ++m)
-            if (!far[m] && s.group[m] == 0)
-              worst =
-                  std::max(worst, contradiction(x, m, b, (G * s.poses[b]).inverse() * s.poses[m]));
-        if (worst > kMaxAmbiguousFreeSpace) continue;
+        if (sides_contradiction(x, s, before, far, G) > kMaxAmbiguousFreeSpace) continue;
         if (!near) {
-          std::vector<char> in(x.scans.size(), 0);
-          for (std::size_t m = 0; m < x.scans.size(); ++m) in[m] = !far[m] && s.group[m] == 0;
-          near = gathered(x, s, in);
+          near = gathered(x, s, before);
           here = settle_part(x, s, far, *near, Eigen::Isometry3d::Identity());
         }
         const PartPlacement there = settle_part(x, s, far, *near, G);
