@@ -174,11 +174,12 @@ std::vector<StitchEdge> make_edges(const std::vector<ScanData>& scans,
       edges.push_back(edge);
   }
   // The agreeing ones refined, in parallel, one thread each, in chunks between which the progress
-  // is told (as search_pairs).
+  // is told (as search_pairs; with 4 a thread, the bracket's ring's 17 edges ran in chunks of 8,
+  // 8 and 1 and the step took 210 ms on 2 threads instead of 179).
   std::vector<std::size_t> todo;
   for (std::size_t k = 0; k < edges.size(); ++k)
     if (edges[k].status.empty()) todo.push_back(k);
-  const std::size_t chunk = 4 * static_cast<std::size_t>(thread_count(s.threads));
+  const std::size_t chunk = 16 * static_cast<std::size_t>(thread_count(s.threads));
   for (std::size_t first = 0; first < todo.size(); first += chunk) {
     if (s.progress) s.progress({"edges", first, todo.size()});
     parallel_tasks(std::min(chunk, todo.size() - first), s.threads,

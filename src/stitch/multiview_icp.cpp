@@ -291,13 +291,26 @@ MultiviewResult multiview_icp(const std::vector<MultiviewScan>& scans,
     const Pass pass{scans, poses, centre, settings, false};
     Eigen::MatrixXd H = Eigen::MatrixXd::Zero(6 * n, 6 * n);
     Eigen::VectorXd g = Eigen::VectorXd::Zero(6 * n);
+    std::vector<std::size_t> stale;
     for (std::size_t l = 0; l < 2 * links.size(); ++l) {
       const auto [a, b] = directed(l);
-      Cached& c = cache[l];
+      const Cached& c = cache[l];
       if (!c.valid || moved(c.pa, poses[a]) >= settings.tolerance ||
           moved(c.pb, poses[b]) >= settings.tolerance)
-        c = {pass.link(a, b, memory[l]), poses[a], poses[b], true};
-      const LinkSums& s = c.sums;
+        stale.push_back(l);
+    }
+    // The stale links' sums, a link a task (the loops inside a link then run on its thread, in
+    // the same chunks: the same bits as one link after another on all threads). Measured
+    // (2026-11-29, the bracket's ring, the same poses to the bit): the stage 2.0 × faster on 2
+    // threads than on one, where parallel loops inside each link made 1.5 × (551 -> 385 ms).
+    parallel_tasks(stale.size(), settings.threads, [&](std::size_t t) {
+      const std::size_t l = stale[t];
+      const auto [a, b] = directed(l);
+      cache[l] = {pass.link(a, b, memory[l]), poses[a], poses[b], true};
+    });
+    for (std::size_t l = 0; l < 2 * links.size(); ++l) {
+      const auto [a, b] = directed(l);
+      const LinkSums& s = cache[l].sums;
       H.block<6, 6>(6 * a, 6 * a) += s.aa;
       H.block<6, 6>(6 * a, 6 * b) += s.ab;
       H.block<6, 6>(6 * b, 6 * a) += s.ab.transpose();
@@ -330,11 +343,14 @@ MultiviewResult multiview_icp(const std::vector<MultiviewScan>& scans,
   }
   out.residuals.assign(n, {});
   const Pass last{scans, poses, centre, settings, true};
-  for (std::size_t l = 0; l < 2 * links.size(); ++l) {
+  std::vector<LinkSums> final_sums(2 * links.size());
+  parallel_tasks(final_sums.size(), settings.threads, [&](std::size_t l) {
     const auto [a, b] = directed(l);
-    const LinkSums s = last.link(a, b, memory[l]);
-    auto& d = out.residuals[a].distances;
-    d.insert(d.end(), s.distances.begin(), s.distances.end());
+    final_sums[l] = last.link(a, b, memory[l]);
+  });
+  for (std::size_t l = 0; l < final_sums.size(); ++l) {
+    auto& d = out.residuals[directed(l).first].distances;
+    d.insert(d.end(), final_sums[l].distances.begin(), final_sums[l].distances.end());
   }
   for (MultiviewPairs& r : out.residuals) r.count = r.distances.size();
   out.poses = std::move(poses);
