@@ -14,7 +14,11 @@
 // Then each scan moves to another placement its candidates give it when, refined on the other
 // scans of its group, that covers clearly more of it (its points on their surfaces at the noise)
 // and contradicts none of them: a near-symmetric view turned onto a look-alike face can fit one
-// neighbour better than the truth fits two, but its asymmetric details lie on no surface.
+// neighbour better than the truth fits two, but its asymmetric details lie on no surface. Then a
+// part of the group (one scan or several) moves as one by a motion more candidates, from more
+// scans, give it across its cut than agree with where it lies, when that contradicts no other
+// scan and lays it on their surfaces as well or clears a contradiction: each scan of a part can
+// be placed by its own wrong pair, the part no branch of the joins' tree.
 // Last, the scans whose placement other candidates contest are named (Selection::ambiguous), alone
 // or as a part of the group turned as a whole.
 // The first scan's group gives the frame; scans no accepted join reaches stay apart.
