@@ -431,18 +431,14 @@ PartPlacement settle_part(const Context& x, const Selection& s, const std::vecto
   return p;
 }
 
-// find_ambiguous() for a part of the group: the scans beyond a join of the spanning tree, moved
-// together by another motion that candidates across the cut agree with more strongly than with
-// the chosen one; or nearly as strongly (kAmbiguousShare), contradicting no scan on the near side,
-// and, refined as one body (settle_part()), laying the part's scans on the others' surfaces nearly
-// as well (within kCoverGain a scan, coverage()) somewhere else than the chosen motion refined.
-// Turned as a whole, a box-like part's views can be consistent among themselves, with the rest,
-// and with free space: measured on the bracket's 8-view ring with every view 25° above the
-// horizontal (2026-11-29), views 1 to 4, joined to the others by one wrong pair, all four 180° off
-// with the pose graph, the multi-view ICP and every free-space check content, while the pair 0–1's
-// right candidate fitted 0.90 of its scans. Unrefined, the keyed flange's ring as written
-// (tests/stitch_test.cpp) had views 1 to 4 "ambiguous" with a motion 2.5° about the axis that
-// refined onto the chosen one.
+// How many scans `part` marks, and the first of them.
+std::size_t marked(const std::vector<char>& part) {
+  return static_cast<std::size_t>(std::count(part.begin(), part.end(), 1));
+}
+std::size_t first_marked(const std::vector<char>& part) {
+  return static_cast<std::size_t>(std::find(part.begin(), part.end(), 1) - part.begin());
+}
+
 // The scans of the first scan's group that `part` does not mark.
 std::vector<char> rest_of_group(const Selection& s, const std::vector<char>& part) {
   std::vector<char> rest(part.size(), 0);
@@ -452,10 +448,10 @@ std::vector<char> rest_of_group(const Selection& s, const std::vector<char>& par
 
 // Whether the part `far` marks is ambiguous (find_ambiguous_parts()).
 bool part_is_ambiguous(const Context& x, const Selection& s, const std::vector<char>& far) {
-  const auto size = static_cast<std::size_t>(std::count(far.begin(), far.end(), 1));
+  const std::size_t size = marked(far);
   const std::vector<char> before = rest_of_group(s, far);
   const Agreement chosen = cut_agreement(x, s, far, Eigen::Isometry3d::Identity());
-  const auto first = static_cast<std::size_t>(std::find(far.begin(), far.end(), 1) - far.begin());
+  const std::size_t first = first_marked(far);
   std::optional<Surroundings> near;
   PartPlacement here;
   for (const Eigen::Isometry3d& G : cut_placements(x, s, far, first)) {
@@ -527,7 +523,7 @@ std::vector<std::vector<char>> moved_parts(const Context& x, const Selection& s,
       return cut_agreement(x, s, p, h.G).score -
              cut_agreement(x, s, p, Eigen::Isometry3d::Identity()).score;
     };
-    for (bool left = true; left && std::count(part.begin(), part.end(), 1) > 1;) {
+    for (bool left = true; left && marked(part) > 1;) {
       left = false;
       double best = lead(part);
       std::size_t leaving = n;
@@ -539,8 +535,7 @@ std::vector<std::vector<char>> moved_parts(const Context& x, const Selection& s,
       }
       if (leaving < n) part[leaving] = 0, left = true;
     }
-    if (static_cast<std::size_t>(std::count(part.begin(), part.end(), 1)) >= min_size &&
-        std::find(parts.begin(), parts.end(), part) == parts.end())
+    if (marked(part) >= min_size && std::find(parts.begin(), parts.end(), part) == parts.end())
       parts.push_back(std::move(part));
   }
   return parts;
@@ -566,8 +561,7 @@ bool settle_parts(const Context& x, Selection& s) {
   std::vector<Move> moves;
   for (const std::vector<char>& far : moved_parts(x, s, 1)) {
     const Agreement chosen = cut_agreement(x, s, far, Eigen::Isometry3d::Identity());
-    const auto first = static_cast<std::size_t>(std::find(far.begin(), far.end(), 1) - far.begin());
-    for (const Eigen::Isometry3d& G : cut_placements(x, s, far, first)) {
+    for (const Eigen::Isometry3d& G : cut_placements(x, s, far, first_marked(far))) {
       const Agreement other = cut_agreement(x, s, far, G);
       if (other.score > chosen.score && other.scans > chosen.scans)
         moves.push_back({other.score - chosen.score, far, G});
@@ -576,7 +570,7 @@ bool settle_parts(const Context& x, Selection& s) {
   std::stable_sort(moves.begin(), moves.end(),
                    [](const Move& a, const Move& b) { return a.lead > b.lead; });
   for (const Move& m : moves) {
-    const auto size = static_cast<double>(std::count(m.far.begin(), m.far.end(), 1));
+    const auto size = static_cast<double>(marked(m.far));
     const std::vector<char> before = rest_of_group(s, m.far);
     const Surroundings near = gathered(x, s, before);
     const PartPlacement here = settle_part(x, s, m.far, near, Eigen::Isometry3d::Identity());
@@ -612,7 +606,7 @@ void find_ambiguous_parts(const Context& x, Selection& s, const std::vector<std:
   std::vector<std::vector<char>> parts;
   for (std::size_t cut : joins) {
     std::vector<char> far = far_side(x, s, joins, cut);
-    if (std::count(far.begin(), far.end(), 1) >= 2) parts.push_back(std::move(far));
+    if (marked(far) >= 2) parts.push_back(std::move(far));
   }  // one scan: find_ambiguous()
   for (std::vector<char>& part : moved_parts(x, s, 2))
     if (std::find(parts.begin(), parts.end(), part) == parts.end())
