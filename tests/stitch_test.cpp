@@ -343,6 +343,22 @@ TEST(Stitch, BracketRingAsWrittenAtTheTarget) {
   for (const Warning& w : r.warnings) EXPECT_NE(w.code, "ambiguous_scans") << w.message;
 }
 
+// Whether scan k is connected more than 1° or 1 % of the diameter (at its centroid) off the truth.
+bool placed_wrong(const StitchResult& r, const synth::StitchScans& set, std::size_t k) {
+  const StitchScan& scan = r.scans[k];
+  const Eigen::Vector3d c = centroid(set.scans[k]);
+  return scan.connected &&
+         (pose_error(scan.transformation, set.T_first_scan[k]).rotation_deg > 1 ||
+          (scan.transformation * c - set.T_first_scan[k] * c).norm() > 0.01 * set.diameter);
+}
+
+// Whether the scan carries a warning that doubts its pose.
+bool doubted(const StitchScan& scan) {
+  return std::any_of(scan.warnings.begin(), scan.warnings.end(), [](const std::string& w) {
+    return w == "single_edge_scan" || w == "ambiguous_scans" || w == "inconsistent_scans";
+  });
+}
+
 // Never silently wrong when a part of the ring is turned as a whole: the bracket's ring with every
 // view at one low elevation (25° or 15° above the horizontal instead of 50° and 25° alternating;
 // the leaf's parent at 5° or 0°) sees mostly its box-like sides, whose views fit each other turned
@@ -360,17 +376,36 @@ TEST(Stitch, AScanTurnedWithAPartOfTheRingIsNeverSilent) {
     const synth::StitchScans set = synth::make_stitch_scans(g);
     const StitchResult r = stitch(set.scans, s);
     for (std::size_t k = 0; k < set.scans.size(); ++k) {
-      const StitchScan& scan = r.scans[k];
-      const Eigen::Vector3d c = centroid(set.scans[k]);
-      if (!scan.connected ||
-          (pose_error(scan.transformation, set.T_first_scan[k]).rotation_deg <= 1 &&
-           (scan.transformation * c - set.T_first_scan[k] * c).norm() <= 0.01 * set.diameter))
-        continue;
-      const auto doubts = [](const std::string& w) {
-        return w == "single_edge_scan" || w == "ambiguous_scans" || w == "inconsistent_scans";
-      };
-      EXPECT_TRUE(std::any_of(scan.warnings.begin(), scan.warnings.end(), doubts))
-          << "elevation " << elevation << ", scan " << k << " is wrong and not doubted";
+      if (placed_wrong(r, set, k)) {
+        EXPECT_TRUE(doubted(r.scans[k]))
+            << "elevation " << elevation << ", scan " << k << " is wrong and not doubted";
+      }
+    }
+  }
+}
+
+// A scan that stronger candidates put elsewhere is doubted even where, so placed, it covers less
+// of itself: the keyed flange with every view at 15° (the leaf's parent at 0°, no leaf). Views 2, 3
+// and 4 end 160° off together (2026-11-29); view 2's right placement has candidates of 0.95 from
+// its two neighbours against 0.37 where it lies, but beside the turned views 3 and 4 it covers
+// 0.73 of the view against 0.86 there, and it was silent (selection.cpp, find_ambiguous()). Views
+// 3 and 4 are left: no pair found their right pose (view 4 is still silent). View 2 must be at the
+// truth or doubted, and no scan at the truth called ambiguous.
+TEST(Stitch, AScanStrongerCandidatesPutElsewhereIsDoubted) {
+  synth::StitchScanSettings g;
+  g.object = synth::StitchObject::kKeyedFlange;
+  g.high_elevation_deg = g.low_elevation_deg = 15;
+  g.parent_elevation_deg = 0;
+  g.leaf = false;
+  StitchSettings s;
+  s.threads = 2;
+  const synth::StitchScans set = synth::make_stitch_scans(g);
+  const StitchResult r = stitch(set.scans, s);
+  EXPECT_TRUE(!placed_wrong(r, set, 2) || doubted(r.scans[2]));
+  for (std::size_t k = 0; k < set.scans.size(); ++k) {
+    const auto& w = r.scans[k].warnings;
+    if (!placed_wrong(r, set, k)) {
+      EXPECT_EQ(std::count(w.begin(), w.end(), "ambiguous_scans"), 0) << "scan " << k;
     }
   }
 }

@@ -21,12 +21,12 @@
 //      agree with is kept. Then a scan moves to another placement its candidates give it when
 //      that, refined on the other scans, puts clearly more of its points on their surfaces, and
 //      a part of the set moves as one where more candidates from more scans put it, when that
-//      contradicts no other scan. A scan (or part) that another placement fits nearly as well is
-//      ambiguous (the warning `ambiguous_scans`). Each pair's candidate that agrees with the choice
-//      is its edge, refined at full resolution (ICP at 2, 1 and ½ of the pair's reach,
-//      Geman-McClure), with its overlap, RMS and information matrix (icp/information.hpp: the
-//      point-to-plane ICP Hessian at the optimum over the noise variance); a pair none agrees with
-//      is reported, not kept ("inconsistent").
+//      contradicts no other scan. A scan (or part) that another placement fits nearly as well,
+//      or that stronger candidates put elsewhere, is ambiguous (the warning `ambiguous_scans`).
+//      Each pair's candidate that agrees with the choice is its edge, refined at full resolution
+//      (ICP at 2, 1 and ½ of the pair's reach, Geman-McClure), with its overlap, RMS and
+//      information matrix (icp/information.hpp: the point-to-plane ICP Hessian at the optimum over
+//      the noise variance); a pair none agrees with is reported, not kept ("inconsistent").
 //   3. the pose graph (stitch/pose_graph.hpp): poses from a maximum spanning tree of the edges by
 //      overlap, then all optimised at once with Ceres (a robust loss on every edge); an edge that
 //      disagrees with the optimised graph by more than prune_rotation_deg or prune_translation ×

@@ -317,6 +317,12 @@ void settle(const Context& x, Selection& s, int threads) {
 // turned by a half as well as at the truth. An alternative that, refined, settles where the chosen
 // placement settles is none: the keyed flange's view 2.5° off about its axis (just beyond
 // kAgreeDeg) refined onto the very pose the chosen one refined to (generated 8-view ring).
+// An alternative stronger than the chosen placement (a higher score, from at least as many other
+// scans, two or more) is not refuted by covering less: the coverage is measured on the neighbours
+// as placed, and wrong ones cover a wrong placement. The keyed flange with every view at 15°
+// (generated, 2026-11-29): view 2 lay 160° off with views 3 and 4, agreeing with candidates of 0.37
+// from two scans; its right placement, with 0.95 from the same two, covered 0.73 of it (beside the
+// turned views 3 and 4) against 0.86 where it lay, and it was silent.
 void find_ambiguous(const Context& x, Selection& s) {
   for (std::size_t k = 1; k < x.scans.size(); ++k) {
     if (s.group[k] != 0) continue;
@@ -334,7 +340,10 @@ void find_ambiguous(const Context& x, Selection& s) {
         here = settle_placement(x, s, *around, k, s.poses[k]);
       }
       const Placement there = settle_placement(x, s, *around, k, X);
-      if (there.cover < here.cover - kCoverGain || x.same(k, there.pose, here.pose)) continue;
+      const bool stronger =
+          other.score > chosen.score && other.scans >= std::max<std::size_t>(2, chosen.scans);
+      if ((!stronger && there.cover < here.cover - kCoverGain) || x.same(k, there.pose, here.pose))
+        continue;
       s.ambiguous.push_back(k);
       break;
     }
