@@ -268,6 +268,12 @@ TEST(Stitch, RingOfViewsWithinATenthOfADegree) {
 
 // Every scan of a generated set connected, within `degrees` of its true pose and, at its points'
 // centroid, within 0.1 % of the object's diameter.
+// How far scan k's stitched pose puts its points' centroid from where the truth puts it.
+double centroid_miss(const StitchResult& r, const synth::StitchScans& set, std::size_t k) {
+  const Eigen::Vector3d c = centroid(set.scans[k]);
+  return (r.scans[k].transformation * c - set.T_first_scan[k] * c).norm();
+}
+
 void expect_every_scan_within(const StitchResult& r, const synth::StitchScans& set, double degrees,
                               bool but_leaf_and_parent = false) {
   for (std::size_t k = 0; k < set.scans.size(); ++k) {
@@ -275,10 +281,8 @@ void expect_every_scan_within(const StitchResult& r, const synth::StitchScans& s
     if (but_leaf_and_parent && (i == set.leaf || i == set.leaf_parent)) continue;
     SCOPED_TRACE("scan " + std::to_string(k));
     ASSERT_TRUE(r.scans[k].connected);
-    const Eigen::Vector3d c = centroid(set.scans[k]);
     EXPECT_LT(pose_error(r.scans[k].transformation, set.T_first_scan[k]).rotation_deg, degrees);
-    EXPECT_LT((r.scans[k].transformation * c - set.T_first_scan[k] * c).norm(),
-              0.001 * set.diameter);
+    EXPECT_LT(centroid_miss(r, set, k), 0.001 * set.diameter);
   }
 }
 
@@ -345,11 +349,9 @@ TEST(Stitch, BracketRingAsWrittenAtTheTarget) {
 
 // Whether scan k is connected more than 1° or 1 % of the diameter (at its centroid) off the truth.
 bool placed_wrong(const StitchResult& r, const synth::StitchScans& set, std::size_t k) {
-  const StitchScan& scan = r.scans[k];
-  const Eigen::Vector3d c = centroid(set.scans[k]);
-  return scan.connected &&
-         (pose_error(scan.transformation, set.T_first_scan[k]).rotation_deg > 1 ||
-          (scan.transformation * c - set.T_first_scan[k] * c).norm() > 0.01 * set.diameter);
+  return r.scans[k].connected &&
+         (pose_error(r.scans[k].transformation, set.T_first_scan[k]).rotation_deg > 1 ||
+          centroid_miss(r, set, k) > 0.01 * set.diameter);
 }
 
 // Whether the scan carries a warning that doubts its pose.

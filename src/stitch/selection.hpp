@@ -43,9 +43,10 @@ struct Selection {
   // diameter, relative to the first scan) while explaining nearly as many candidates (at least
   // kAmbiguousShare of the chosen score) and covering nearly as much of the scan (within
   // kCoverGain), or explaining more, from as many other scans (two or more), whatever it covers;
-  // and the scans of a part of the group (beyond one join of the tree that joined
-  // it) that candidates across that join place elsewhere as a whole, as strongly, or nearly and
-  // contradicting nothing and covering as much: the data do not decide their poses. Ascending.
+  // and the scans of a part of the group (beyond one join of the tree that joined it, or that
+  // candidates would move as one) that candidates across its cut place elsewhere as a whole, as
+  // strongly, or nearly and contradicting nothing and covering as much: the data do not decide
+  // their poses. Ascending.
   std::vector<std::size_t> ambiguous;
   double score = 0;  // Σ score of the candidates that agree with the chosen poses
 };
