@@ -84,9 +84,9 @@ def test_a_ppf_model_registers_scans_onto_its_target(chapter, tmp_path):
 
 
 def test_evaluate_quick(tmp_path):
-    # Two of the four built-in scenes: the command line's test (tests/cli_test.cpp,
-    # CliEvaluate.QuickRunWritesTheTableAndTheBasin) runs all four through the same engine, and
-    # the animal's alone took 40 of this test's 62 s.
+    # Two of the four built-in scenes (the animal's alone took 40 of this test's 62 s); the command
+    # line's test (tests/cli_test.cpp, CliEvaluate.QuickRunWritesTheTableAndTheBasin) runs the
+    # same engine on chapter and bumpy-sphere.
     scenes = ["chapter", "bracket"]
     report = align3d.evaluate(tmp_path / "eval", quick=True, threads=2, scenes=scenes)
     assert report["trials"] == 3
