@@ -400,10 +400,10 @@ TEST_F(Cli, GlobalSaysSoWhenNothingMatches) {
 }
 
 // The quick evaluation on two of the four built-in scenes (the animal's alone took 95 of the 120 s
-// that all four took in CI's Release stage; python/tests/test_commands.py runs chapter and
-// bracket): every method's row, the basin figures of those scenes only, and the outcome the README
-// reports: from the random starts, the global stage and the default place the source at the truth
-// every time on these scenes.
+// that all four took in CI's Release stage; python/tests/test_commands.py runs chapter, and the
+// bracket's files as a directory of one's own): every method's row, the basin figures of those
+// scenes only, and the outcome the README reports: from the random starts, the global stage and
+// the default place the source at the truth every time on these scenes.
 TEST(CliEvaluate, QuickRunWritesTheTableAndTheBasin) {
   test::TempDir d("evaluate");
   const CliRun r =
