@@ -414,8 +414,8 @@ void add_warnings(StitchResult& r, const std::vector<StitchEdge>& edges,
   if (!ambiguous.empty())
     warn(r, "ambiguous_scans",
          "scan(s) " + scan_list(ambiguous) +
-             " fit the others as well or better at other poses: the data do not decide where they "
-             "lie",
+             " fit the others as well or better at other poses: the data do not decide "
+             "where they lie",
          ambiguous);
   if (!inconsistent.empty()) {
     const auto& [share, a, b] = inconsistent.front();
