@@ -266,14 +266,14 @@ TEST(Stitch, RingOfViewsWithinATenthOfADegree) {
   for (const Warning& w : r.warnings) EXPECT_NE(w.code, "inconsistent_scans") << w.message;
 }
 
-// Every scan of a generated set connected, within `degrees` of its true pose and, at its points'
-// centroid, within 0.1 % of the object's diameter.
 // How far scan k's stitched pose puts its points' centroid from where the truth puts it.
 double centroid_miss(const StitchResult& r, const synth::StitchScans& set, std::size_t k) {
   const Eigen::Vector3d c = centroid(set.scans[k]);
   return (r.scans[k].transformation * c - set.T_first_scan[k] * c).norm();
 }
 
+// Every scan of a generated set connected, within `degrees` of its true pose and, at its points'
+// centroid, within 0.1 % of the object's diameter.
 void expect_every_scan_within(const StitchResult& r, const synth::StitchScans& set, double degrees,
                               bool but_leaf_and_parent = false) {
   for (std::size_t k = 0; k < set.scans.size(); ++k) {
