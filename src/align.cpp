@@ -18,10 +18,13 @@ using detail::fixed;
 using detail::ms_since;
 using detail::number;
 
-// The noise the RMS is compared with (noise_floor, icp/refine.hpp).
-double noise_floor(const Support& s) { return align3d::noise_floor(s.noise, s.spacing); }
-
 // What is weak about an answer (align.hpp), as one sentence per finding; empty when nothing.
+// "the residuals are X × what a right pose leaves (RMS a, expected b)", of the fit (icp/fit.hpp).
+std::string fit_words(const FitEvidence& f) {
+  return "the residuals are " + fixed(f.ratio, 1) + " x what a right pose leaves (RMS " +
+         number(f.rms) + ", expected " + number(f.expected) + ")";
+}
+
 std::vector<Warning> weaknesses(const RefineResult& r, const Support& s) {
   std::vector<Warning> w;
   const IcpResult& icp = r.icp;
@@ -36,12 +39,9 @@ std::vector<Warning> weaknesses(const RefineResult& r, const Support& s) {
                              " (the smaller cloud) lies on the other cloud's surface at "
                              "the result (at least " +
                              fixed(100 * kWeakOverlap, 0) + " % expected); the pose may be wrong"});
-  const double floor = noise_floor(s);
-  if (icp.rms > kWeakRms * floor)
-    w.push_back({"high_rms", "RMS " + number(icp.rms) + " is " + fixed(icp.rms / floor, 1) +
-                                 " x the noise estimate " + number(floor) + " (at most " +
-                                 fixed(kWeakRms, 0) +
-                                 " x expected); the pose may be a wrong local minimum"});
+  if (r.fit.ratio > kWeakFit)
+    w.push_back({"high_rms", fit_words(r.fit) + ", more than " + fixed(kWeakFit, 1) +
+                                 " x; the pose may be a wrong local minimum"});
   if (!icp.degenerate_directions.empty())
     w.push_back({"degenerate", "the geometry does not constrain " +
                                    std::to_string(icp.degenerate_directions.size()) +
@@ -74,10 +74,8 @@ std::string unconfirmed_because(const AlignCandidate& c) {
     return "only " + fixed(100 * c.support.overlap, 1) + " % of the " +
            to_string(c.support.object) + " lies on the other cloud's surface (less than " +
            fixed(100 * kConfirmedOverlap, 0) + " %: unconfirmed)";
-  const double floor = noise_floor(c.support);
-  if (c.rms > kConfirmedRms * floor)
-    return "RMS " + number(c.rms) + " is " + fixed(c.rms / floor, 1) +
-           " x the noise estimate (more than " + fixed(kConfirmedRms, 2) + " x: unconfirmed)";
+  if (c.fit.ratio > kConfirmedFit)
+    return fit_words(c.fit) + " (more than " + fixed(kConfirmedFit, 1) + " x: unconfirmed)";
   return {};
 }
 
@@ -153,6 +151,8 @@ class Pipeline {
       source_fixed_ = std::make_unique<RefineTarget>(source, s.refine.normals, s.threads);
     refine_ = s.refine;
     refine_.threads = s.threads;
+    refine_.covariance = true;  // the result's covariance and stopped_short
+    refine_.judge = true;       // every answer is judged (weaknesses, unconfirmed_because)
     refine_.source_noise = reversed_ ? target.scale.noise : source_scale_.noise;
     // Step 3 of the ICP schedule (basin hopping, the GICP candidate) where ICP is all there is.
     // With init auto an unconfirmed first pose is the global stage's to mend, and step 3 runs
@@ -215,7 +215,10 @@ AlignCandidate Pipeline::refine_from(const Eigen::Isometry3d& init, const std::s
     meter_ =
         std::make_unique<SupportMeter>(source_, target_.refine.cloud(), s_.threads, &source_tree_,
                                        &target_.refine.tree(), &source_scale_, &target_.scale);
-  AlignCandidate c{path, T, meter_->measure(T), r.icp.rms};
+  // The structured noise the fit found is allowed for where the pose fits at the noise
+  // (support.hpp).
+  const bool fits = r.fit.ratio <= kConfirmedFit;
+  AlignCandidate c{path, T, meter_->measure(T, fits ? r.fit.structured : 0), r.icp.rms, r.fit};
   c.weak = !weaknesses(r, c.support).empty();
   out_.timings.support_ms += ms_since(start);
   out_.candidates.push_back(c);

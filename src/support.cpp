@@ -53,8 +53,14 @@ SupportMeter::SupportMeter(const PointCloud& source, const PointCloud& target, i
 
 SupportMeter::~SupportMeter() = default;
 
-Support SupportMeter::measure(const Eigen::Isometry3d& T) {
+Support SupportMeter::measure(const Eigen::Isometry3d& T, double structured) {
   Support out = base_;
+  if (structured > 0) {
+    out.structured = structured;
+    const double noise = std::hypot(out.noise, structured);
+    out.reach = kReachSpacings * out.spacing + kReachSigmas * noise;
+    out.band = std::max(kBandSigmas * noise, kBandSpacings * out.spacing);
+  }
   const bool source_object = base_.object == Role::kSource;
   const PointCloud& object = source_object ? source_ : target_;
   const PointCloud& other = source_object ? target_ : source_;

@@ -179,6 +179,7 @@ Calibration calibrate(IcpMethod method, const Draw& draw, const std::vector<Vect
     const PointCloud source = noisy_sample(12000, rng, 0.1, draw);
     RefineSettings s;
     s.method = method;
+    s.covariance = true;
     const RefineResult r = refine(source, target, Eigen::Isometry3d::Identity(), s);
     const Eigen::VectorXd xi = basis.transpose() * se3_log(r.icp.T_target_source);
     const Eigen::MatrixXd cov = basis.transpose() * r.icp.covariance * basis;
@@ -270,6 +271,7 @@ TEST_P(RangeScans, CovarianceOfTwoRenderedViews) {
     const Eigen::Isometry3d truth = v.T_camera_object[0] * v.T_camera_object[1].inverse();
     RefineSettings s;
     s.method = GetParam().method;
+    s.covariance = true;
     const Eigen::Isometry3d start =
         rigid_transform(1.0, Eigen::Vector3d(1, 2, 3), Eigen::Vector3d(1, 0, 0)) * truth;
     const RefineResult r = refine(v.views[1].valid_points(), v.views[0].valid_points(), start, s);
@@ -303,14 +305,16 @@ TEST(ModelError, PointsFromPointToPlanesPoseTowardTheTruth) {
       const synth::ObjectViews v = two_views(object, k, 0.0, 3.0);
       const Eigen::Isometry3d truth = v.T_camera_object[0] * v.T_camera_object[1].inverse();
       const PointCloud source = v.views[1].valid_points(), target = v.views[0].valid_points();
-      const RefineResult r = refine(source, target, truth, RefineSettings{});
+      RefineSettings with_covariance;
+      with_covariance.covariance = true;
+      const RefineResult r = refine(source, target, truth, with_covariance);
       const Vector6d e = se3_log(r.icp.T_target_source * truth.inverse());
       const Vector6d moved = e + r.icp.model_error;
       before_r += e.head<3>().squaredNorm(), before_t += e.tail<3>().squaredNorm();
       after_r += moved.head<3>().squaredNorm(), after_t += moved.tail<3>().squaredNorm();
       if (k == 0) {
         for (IcpMethod m : {IcpMethod::kGicp, IcpMethod::kSymmetric}) {
-          RefineSettings s;
+          RefineSettings s = with_covariance;
           s.method = m;
           EXPECT_TRUE(refine(source, target, truth, s).icp.model_error.isZero()) << to_string(m);
         }

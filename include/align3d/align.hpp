@@ -11,9 +11,9 @@
 //   global          the global stage (fpfh or ppf), then ICP from its pose; no pose with enough
 //                   support is no solution (success false);
 //   auto (default)  ICP from initial_pose; when its answer is weak (support.hpp: overlap below
-//                   kWeakOverlap, RMS above kWeakRms × the noise σ₀, free directions
-//                   (degeneracy.hpp), no convergence) or merely unconfirmed (overlap below
-//                   kConfirmedOverlap, or RMS above kConfirmedRms × σ₀: a partial view slid
+//                   kWeakOverlap; its fit at the noise, icp/fit.hpp, above kWeakFit; free
+//                   directions (degeneracy.hpp), no convergence) or merely unconfirmed (overlap
+//                   below kConfirmedOverlap, or a fit above kConfirmedFit: a partial view slid
 //                   face on face, or turned by a quarter about a box-like part, can fit that
 //                   well), the
 //                   global stage runs too, ICP refines its pose, and the better supported of the
@@ -32,8 +32,8 @@
 // depth-camera bin: 18° off the right way, 0.16° reversed). `reversed` says so; the refine fields
 // then describe that run. A mesh target is never reversed: its surface is exact and has no clutter.
 // Whatever the path, a result that may be wrong comes with warnings (never silently): ICP hit its
-// iteration cap, free directions, weak overlap, RMS far above the noise, an ambiguous global pose,
-// a global stage that found nothing in auto mode.
+// iteration cap, free directions, weak overlap, residuals far above the noise, an ambiguous global
+// pose, a global stage that found nothing in auto mode.
 #pragma once
 
 #include <Eigen/Geometry>
@@ -58,8 +58,8 @@ const char* to_string(InitPolicy p);
 
 // Support below either bound makes an answer weak (see above).
 constexpr double kWeakOverlap = 0.2;
-constexpr double kConfirmedOverlap = 0.5;  // kConfirmedRms, kClearlyBetter: icp/refine.hpp
-constexpr double kWeakRms = 2.5;
+constexpr double kConfirmedOverlap = 0.5;  // kConfirmedFit, kClearlyBetter: icp/refine.hpp
+constexpr double kWeakFit = 2.0;           // FitEvidence::ratio (icp/fit.hpp)
 // ICP's next update longer than this many standard deviations of its covariance
 // (IcpResult::pending_sigmas): it stopped short of its stationary point (warning stopped_short).
 constexpr double kStoppedShortSigmas = 2.0;
@@ -86,6 +86,7 @@ struct AlignCandidate {
   Eigen::Isometry3d transformation = Eigen::Isometry3d::Identity();
   Support support;
   double rms = 0;
+  FitEvidence fit;    // its ICP's fit at the noise (icp/fit.hpp)
   bool weak = false;  // has warnings (align.hpp)
 };
 

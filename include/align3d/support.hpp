@@ -9,8 +9,9 @@
 // leaves the rest off, the right pose lays every overlapping part on it. The distances follow the
 // data, so mm and m behave the same:
 //   s = the larger of the two point spacings (cloud_stats.hpp), σ₀ = √(σ_source² + σ_target²) with
-//   σ the surface noise of each cloud (cloud_stats.hpp);  reach = 1.5 s + 3 σ₀,
-//   band = max(3 σ₀, 0.1 s).
+//   σ the surface noise of each cloud (cloud_stats.hpp), or √(σ₀² + σ_x²) where the pose fits at
+//   the noise and its pairs show structured noise σ_x beyond σ₀ (icp/fit.hpp, align.cpp);
+//   reach = 1.5 s + 3 σ₀, band = max(3 σ₀, 0.1 s).
 // At most 50 000 object points, evenly spaced, are tested.
 #pragma once
 
@@ -26,9 +27,10 @@
 namespace align3d {
 
 struct Support {
-  double overlap = 0;  // share of the object's points on the other cloud's surface at the pose
-  double noise = 0;    // σ₀ (data units)
-  double spacing = 0;  // s (data units)
+  double overlap = 0;     // share of the object's points on the other cloud's surface at the pose
+  double noise = 0;       // σ₀ (data units)
+  double spacing = 0;     // s (data units)
+  double structured = 0;  // σ_x the test allowed for (data units; 0: none)
   double reach = 0, band = 0;   // the distances of the test (data units)
   Role object = Role::kTarget;  // which cloud the share is of
 };
@@ -47,7 +49,9 @@ class SupportMeter {
   SupportMeter(const SupportMeter&) = delete;
   SupportMeter& operator=(const SupportMeter&) = delete;
 
-  Support measure(const Eigen::Isometry3d& T_target_source);
+  // `structured`: σ_x (data units) the pose's fit showed (FitEvidence::structured of a pose that
+  // fits at the noise; 0: none).
+  Support measure(const Eigen::Isometry3d& T_target_source, double structured = 0);
 
  private:
   const PointCloud& source_;

@@ -32,6 +32,25 @@ void find_correspondences(const std::vector<Eigen::Vector3d>& source, const Poin
   });
 }
 
+void set_aside_crowded(std::size_t targets, double threshold, double reciprocity, double floor,
+                       int threads, Correspondences& c) {
+  // Per target point, its shortest kept pair (the caller's thread_local buffer, named here so the
+  // helper threads read this one and not their own). Hand-written: one pass and an array of the
+  // target's size; a kd-tree of the source for true mutual neighbours (tried first) took the final
+  // stage on 1M points from 0.5 to 0.9 s, this from 0.5 to 0.6 s.
+  thread_local std::vector<double> buffer;
+  std::vector<double>& shortest = buffer;
+  shortest.assign(targets, std::numeric_limits<double>::infinity());
+  for (std::size_t i = 0; i < c.target.size(); ++i)
+    if (is_kept(c, i, threshold))
+      shortest[c.target[i]] = std::min(shortest[c.target[i]], c.distance[i]);
+  c.aside.assign(c.target.size(), 0);
+  parallel_for(c.target.size(), threads, [&](std::size_t i) {
+    c.aside[i] = is_kept(c, i, threshold) && c.distance[i] > floor &&
+                 c.distance[i] > reciprocity * shortest[c.target[i]];
+  });
+}
+
 void find_surface_correspondences(const std::vector<Eigen::Vector3d>& source,
                                   const MeshIndex& surface, const Eigen::Isometry3d& T,
                                   double bound, int threads, Correspondences& pairs) {

@@ -29,31 +29,6 @@ std::vector<std::uint32_t> missing_normals(const Correspondences& c, double thre
       });
 }
 
-// Sets aside (Correspondences::aside) each pair within `threshold`, longer than `floor`, whose
-// target point has another kept pair shorter than its distance ÷ `reciprocity` (1: PCL's
-// CorrespondenceRejectorOneToOne, which keeps only the shortest pair of each target point). Turk
-// and Levoy (1994) drop pairs on a mesh's boundary for the same reason: the source points beyond
-// the overlap pair with the rim, along the surface, and the rim's partners inside the overlap are
-// closer to it. Hand-written: the loop is ours. One pass and an array of the target's size: a
-// kd-tree of the source for true mutual neighbours (tried first) took the final stage on 1M points
-// from 0.5 to 0.9 s, this from 0.5 to 0.6 s (refine.hpp has the measurements on the animal).
-void set_aside_crowded(std::size_t targets, double threshold, double reciprocity, double floor,
-                       int threads, Correspondences& c) {
-  // Per target point, its shortest kept pair (the caller's thread_local buffer, named here so the
-  // helper threads read this one and not their own).
-  thread_local std::vector<double> buffer;
-  std::vector<double>& shortest = buffer;
-  shortest.assign(targets, std::numeric_limits<double>::infinity());
-  for (std::size_t i = 0; i < c.target.size(); ++i)
-    if (is_kept(c, i, threshold))
-      shortest[c.target[i]] = std::min(shortest[c.target[i]], c.distance[i]);
-  c.aside.assign(c.target.size(), 0);
-  parallel_for(c.target.size(), threads, [&](std::size_t i) {
-    c.aside[i] = is_kept(c, i, threshold) && c.distance[i] > floor &&
-                 c.distance[i] > reciprocity * shortest[c.target[i]];
-  });
-}
-
 // Whether the run reads a point-cloud target's normals: every method but point-to-point, and
 // point-to-point onto tangent planes (IcpSettings::tangent_planes).
 bool reads_target_normals(const IcpSettings& s) {

@@ -8,6 +8,7 @@
 
 #include "align3d/cloud_stats.hpp"
 #include "align3d/error.hpp"
+#include "align3d/icp/correspondences.hpp"
 #include "align3d/icp/degeneracy.hpp"
 
 namespace align3d {
@@ -175,6 +176,35 @@ double RefineTarget::spacing() {
   return spacing_;
 }
 
+FitEvidence measure_fit(const PointCloud& source, RefineTarget& target, const Eigen::Isometry3d& T,
+                        double reach, double source_noise, int threads) {
+  const double spacing = target.spacing();
+  const double noise = std::hypot(source_noise, target.noise());
+  Correspondences c;
+  std::vector<double> residuals;
+  if (const MeshIndex* surface = target.surface()) {
+    find_surface_correspondences(source.positions, *surface, T, reach, threads, c);
+    for (std::size_t i = 0; i < source.size(); ++i)
+      if (is_kept(c, i, reach))
+        residuals.push_back(c.normal[i].dot(T * source.positions[i] - c.point[i]));
+    return judge_fit(residuals, noise, spacing);
+  }
+  const PointCloud& cloud = target.cloud();
+  find_correspondences(source.positions, cloud, target.tree(), T, reach, threads, c);
+  set_aside_crowded(cloud.size(), reach, kFinalReciprocity, kReciprocityFloorSpacings * spacing,
+                    threads, c);
+  auto judged = [&](std::size_t i) { return is_kept(c, i, reach) && !c.aside[i]; };
+  std::vector<std::uint32_t> partners;
+  for (std::size_t i = 0; i < source.size(); ++i)
+    if (judged(i)) partners.push_back(static_cast<std::uint32_t>(c.target[i]));
+  const std::vector<Eigen::Vector3d>& normals = target.normals(partners);
+  for (std::size_t i = 0; i < source.size(); ++i)
+    if (judged(i))
+      residuals.push_back(
+          normals[c.target[i]].dot(T * source.positions[i] - cloud.positions[c.target[i]]));
+  return judge_fit(residuals, noise, spacing);
+}
+
 namespace {
 
 // Where the coarse stages (step 2 of refine.hpp) end: the pose, σ̂ (the last stage's RMS) and that
@@ -204,43 +234,34 @@ CoarseEnd coarse_stages(const PointCloud& source, const Eigen::Isometry3d& init,
   return end;
 }
 
-// Step 3 of refine.hpp, basin hopping: `end` when its pose is confirmed (RMS within `reach` at
-// most kConfirmedRms × noise_floor(σ₀, spacing)); else candidates are tried, each the coarse stages
-// (`coarse(start, method)`) from a start, and one that lays clearly more source points within
-// max(3 s, 4 σ₀) of the target is kept: hops along the weakest direction of the kept pose's
-// system (settings.hop; again from a kept pose still unconfirmed, at most kHopChain times), then,
-// if still unconfirmed, GICP's from `init` (settings.gicp_candidate), and if it is kept, hops from
-// it with GICP's stages. The candidates' stages are recorded with StageRecord::hop.
-template <class Coarse, class Measure>
+// Step 3 of refine.hpp, basin hopping: `end` when its pose is confirmed (its fit within `reach`,
+// icp/fit.hpp, at most kConfirmedFit; `judge(T, reach)`); else candidates are tried, each the
+// coarse stages (`coarse(start, method)`) from a start, and one that lays clearly more source
+// points within max(3 s, 4 σ₀) of the target is kept: hops along the weakest direction of the kept
+// pose's system (settings.hop; again from a kept pose still unconfirmed, at most kHopChain times),
+// then, if still unconfirmed, GICP's from `init` (settings.gicp_candidate), and if it is kept, hops
+// from it with GICP's stages. The candidates' stages are recorded with StageRecord::hop.
+template <class Coarse, class Measure, class Judge>
 CoarseEnd hop_basins(const PointCloud& source, RefineTarget& target, const Eigen::Isometry3d& init,
-                     const CoarseEnd& end, double reach, double spacing,
+                     const CoarseEnd& end, double reach, double source_noise,
                      const RefineSettings& settings, RefineResult& out, Coarse&& coarse,
-                     Measure&& measure) {
+                     Measure&& measure, Judge&& judge) {
   IcpResult here = measure(end.T, reach);
-  const double sq_target_noise = target.noise() * target.noise();
-  double sq_source_noise = 0;  // σ₀ ≥ the target's noise: the source's is measured when in doubt
+  double ratio = judge(end.T, reach).ratio;
   // Too few pairs within the reach (the coarse stages broke off far from the object) is no
-  // confirmation, whatever the RMS of those few.
+  // confirmation, whatever the fit of those few.
   auto unconfirmed = [&] {
-    return here.stop_reason == StopReason::kTooFewCorrespondences ||
-           here.rms >
-               kConfirmedRms * noise_floor(std::sqrt(sq_source_noise + sq_target_noise), spacing);
+    return here.stop_reason == StopReason::kTooFewCorrespondences || ratio > kConfirmedFit;
   };
-  if (!unconfirmed()) return end;
-  if (settings.source_noise >= 0) {
-    sq_source_noise = settings.source_noise * settings.source_noise;
-  } else {
-    const KdTree tree(source.positions, settings.threads);
-    sq_source_noise = std::pow(surface_noise(source, tree), 2);
-  }
   out.unconfirmed = unconfirmed();
   if (!out.unconfirmed || !(settings.hop || settings.gicp_candidate)) return end;
   // Candidates are compared by the source points they lay within a reach of the data's noise
   // (not `reach`, which grows with the RMS of the pose the coarse stages reached: where those
   // broke off far from the object it let almost every point count for any candidate).
+  const double spacing = target.spacing();
   const double overlap_reach =
       std::max(kFinalSpacings * spacing,
-               kFinalSigmas * noise_floor(std::sqrt(sq_source_noise + sq_target_noise), spacing));
+               kFinalSigmas * noise_floor(std::hypot(source_noise, target.noise()), spacing));
   auto overlap = [&](const Eigen::Isometry3d& T) {
     return static_cast<double>(measure(T, overlap_reach).correspondences);
   };
@@ -258,6 +279,7 @@ CoarseEnd hop_basins(const PointCloud& source, RefineTarget& target, const Eigen
     best = candidate;
     best_overlap = there;
     here = measure(candidate.T, reach);
+    ratio = judge(candidate.T, reach).ratio;
     method = cost;
     out.hopped = true;
     return true;
@@ -307,9 +329,17 @@ const PointCloud& with_normals(const PointCloud& source, IcpMethod method,
   return copy;
 }
 
+// The source's noise σ_s (icp/fit.hpp): the caller's measure, or surface_noise of `source`.
+double noise_of(const PointCloud& source, const RefineSettings& settings) {
+  if (settings.source_noise >= 0) return settings.source_noise;
+  const KdTree tree(source.positions, settings.threads);
+  return surface_noise(source, tree);
+}
+
 // The `auto` schedule (refine.hpp): coarse stages at a shrinking τ, basin hopping when their pose
-// is not confirmed, then the final stage with `last` (method, termination, threads, and the kernel
-// when one was asked for). `measure` evaluates a pose without moving it (an ICP run of no update).
+// is not confirmed, then the final stage with `last` (method, termination, threads, covariance, and
+// the kernel when one was asked for). `measure` evaluates a pose without moving it (an ICP run of
+// no update).
 template <class Run, class Measure>
 void refine_schedule(const PointCloud& source, RefineTarget& target, const Eigen::Isometry3d& init,
                      const RefineSettings& settings, IcpSettings last, RefineResult& out, Run&& run,
@@ -324,6 +354,10 @@ void refine_schedule(const PointCloud& source, RefineTarget& target, const Eigen
   const double floor = kFinalSpacings * spacing;
   const PointCloud thin = thinned(source);
   const PointCloud& coarse_source = thin.empty() ? source : thin;
+  const double source_noise = noise_of(coarse_source, settings);
+  auto judge = [&](const Eigen::Isometry3d& T, double reach) {
+    return measure_fit(coarse_source, target, T, reach, source_noise, settings.threads);
+  };
 
   IcpSettings coarse = last;
   coarse.covariance = false;
@@ -344,9 +378,10 @@ void refine_schedule(const PointCloud& source, RefineTarget& target, const Eigen
       return coarse_stages(*oriented, start, diagonal, floor, stages, run);
     };
     end = hop_basins(
-        coarse_source, target, init, end, std::max(floor, kFinalSigmas * end.sigma), spacing,
+        coarse_source, target, init, end, std::max(floor, kFinalSigmas * end.sigma), source_noise,
         settings, out, candidate,
-        [&](const Eigen::Isometry3d& T, double reach) { return measure(coarse_source, T, reach); });
+        [&](const Eigen::Isometry3d& T, double reach) { return measure(coarse_source, T, reach); },
+        judge);
   }
   Eigen::Isometry3d T = end.T;
   const double sigma = end.sigma;
@@ -365,6 +400,7 @@ void refine_schedule(const PointCloud& source, RefineTarget& target, const Eigen
     last.kernel_scale = kernel_scale_or_tuned(last.kernel, settings.kernel_scale, sigma);
   }
   out.icp = run(source, T, last);
+  if (settings.judge) out.fit = judge(out.icp.T_target_source, tau);
 }
 
 }  // namespace
@@ -386,8 +422,8 @@ RefineResult refine(const PointCloud& given_source, RefineTarget& target,
   // the methods that do not read the source's normals themselves) measures their model error with
   // the symmetric step (IcpResult::model_error), which reads them (where the source has a
   // neighbourhood's worth of points).
-  const bool measured_planes = automatic && !needs_source_normals(settings.method) &&
-                               !target.surface() &&
+  const bool measured_planes = automatic && settings.covariance &&
+                               !needs_source_normals(settings.method) && !target.surface() &&
                                given_source.size() >= static_cast<std::size_t>(settings.normals.k);
   const IcpMethod normals_for = measured_planes ? IcpMethod::kSymmetric : settings.method;
   PointCloud copy;
@@ -412,7 +448,7 @@ RefineResult refine(const PointCloud& given_source, RefineTarget& target,
   last.method = settings.method;
   last.threads = settings.threads;
   last.termination = settings.termination;
-  last.covariance = true;
+  last.covariance = settings.covariance;
   if (settings.kernel) {
     last.kernel = *settings.kernel;
     last.kernel_scale = settings.kernel_scale;
@@ -420,6 +456,10 @@ RefineResult refine(const PointCloud& given_source, RefineTarget& target,
   if (!automatic) {
     last.rejection = settings.rejection;
     out.icp = run(source, init, last);
+    if (settings.judge && !out.icp.history.empty())
+      out.fit =
+          measure_fit(source, target, out.icp.T_target_source, out.icp.history.back().threshold,
+                      noise_of(source, settings), settings.threads);
     return out;
   }
   // A pose as the schedule judges it (refine.hpp, step 3): the point-to-plane pairs within

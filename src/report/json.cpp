@@ -36,7 +36,8 @@ nlohmann::json refine_json(const RefineResult& r) {
           {"stages", stages},
           {"hops", r.hops},
           {"hopped", r.hopped},
-          {"unconfirmed", r.unconfirmed}};
+          {"unconfirmed", r.unconfirmed},
+          {"fit", to_json(r.fit)}};
 }
 
 nlohmann::json init_json(const AlignResult& r, const AlignSettings& s) {
@@ -46,6 +47,7 @@ nlohmann::json init_json(const AlignResult& r, const AlignSettings& s) {
                           {"transformation", to_json(c.transformation)},
                           {"overlap", c.support.overlap},
                           {"rms", c.rms},
+                          {"fit_ratio", c.fit.ratio},
                           {"weak", c.weak}});
   return {{"policy", to_string(s.init)},
           {"path", r.path},
@@ -160,9 +162,17 @@ nlohmann::json to_json(const GlobalResult& g) {
 }
 
 nlohmann::json to_json(const Support& s) {
-  return {{"overlap", s.overlap}, {"object", to_string(s.object)},
-          {"noise", s.noise},     {"spacing", s.spacing},
-          {"reach", s.reach},     {"band", s.band}};
+  return {{"overlap", s.overlap}, {"object", to_string(s.object)}, {"noise", s.noise},
+          {"spacing", s.spacing}, {"structured", s.structured},    {"reach", s.reach},
+          {"band", s.band}};
+}
+
+nlohmann::json to_json(const FitEvidence& f) {
+  return {{"ratio", f.ratio},
+          {"rms", f.rms},
+          {"expected", f.expected},
+          {"structured", f.structured},
+          {"pairs", f.pairs}};
 }
 
 nlohmann::json registration_report(const AlignResult& r, const AlignSettings& s,

@@ -44,6 +44,15 @@ void find_correspondences(const std::vector<Eigen::Vector3d>& source, const Poin
                           const KdTree& tree, const Eigen::Isometry3d& T, double bound, int threads,
                           Correspondences& pairs);
 
+// Sets aside (Correspondences::aside) each pair within `threshold`, longer than `floor`, whose
+// target point has another kept pair shorter than its distance ÷ `reciprocity` (1: PCL's
+// CorrespondenceRejectorOneToOne, which keeps only the shortest pair of each target point;
+// `targets` the target's size). Turk and Levoy (1994) drop pairs on a mesh's boundary for the same
+// reason: the source points beyond the overlap pair with the rim, along the surface, and the rim's
+// partners inside the overlap are closer to it (refine.hpp has the measurements on the animal).
+void set_aside_crowded(std::size_t targets, double threshold, double reciprocity, double floor,
+                       int threads, Correspondences& c);
+
 // Pairs T·source[i] with its closest point on `surface` closer than `bound` (the same contract);
 // consecutive source points close in space make the search cheap (MeshIndex::closest_points).
 void find_surface_correspondences(const std::vector<Eigen::Vector3d>& source,

@@ -14,11 +14,11 @@
 //      pairs (outliers, the intruder wall) pull little while the distinctive structure (box, cap)
 //      stays in reach long enough to fix x, y and yaw;
 //   3. basin hopping (Wales and Doye 1997) when the pose the coarse stages reached is not
-//      confirmed by the data: its point-to-plane RMS within the final reach τ_f = max(3 s, 4 σ̂)
-//      (σ̂: the last coarse stage's RMS, i.e. the noise) above kConfirmedRms × the noise of the
-//      two clouds, σ₀ = √(σ_source² + σ_target²) (surface_noise, cloud_stats.hpp; at least
-//      kNoiseFloorSpacings × s), or too few pairs within τ_f (the stages broke off far from the
-//      object), the test align() calls unconfirmed. The coarse stages run again
+//      confirmed by the data: its fit within the final reach τ_f = max(3 s, 4 σ̂) (σ̂: the last
+//      coarse stage's RMS, i.e. the noise) above kConfirmedFit (icp/fit.hpp: the point-to-plane
+//      residuals against those a right pose leaves), or too few pairs within τ_f (the stages
+//      broke off far from the object), the test align() calls unconfirmed. The coarse stages run
+//      again
 //      from the pose moved along the direction their last system constrains least (Gelfand et al.
 //      2003: a near-symmetry, where ICP's pairs exert almost no pull) by ±kHopStep (a turn of 29°),
 //      then ±2 kHopStep (57°) and ±3 kHopStep (86°) while none is clearly better; a start is kept
@@ -121,6 +121,7 @@
 #include <string_view>
 #include <vector>
 
+#include "align3d/icp/fit.hpp"
 #include "align3d/icp/icp.hpp"
 #include "align3d/kdtree.hpp"
 #include "align3d/mesh_index.hpp"
@@ -140,16 +141,16 @@ struct CostSettings {
   double kernel_scale = 0;
 };
 
-// When the data confirm a pose, here and in align() (align.hpp): its RMS at most kConfirmedRms ×
-// σ₀, the noise of the two clouds, σ₀ at least kNoiseFloorSpacings × the point spacing; and when
-// one pose is clearly better than another: it lays kClearlyBetter more of the object (a share of
-// its points) on the other cloud's surface.
-inline constexpr double kConfirmedRms = 1.75;
-inline constexpr double kNoiseFloorSpacings = 0.05;
+// When the data confirm a pose, here and in align() (align.hpp): its residuals within the final
+// reach at most kConfirmedFit times those a right pose leaves (FitEvidence::ratio, icp/fit.hpp);
+// and when one pose is clearly better than another: it lays kClearlyBetter more of the object (a
+// share of its points) on the other cloud's surface.
+inline constexpr double kConfirmedFit = 1.75;
 inline constexpr double kClearlyBetter = 0.05;
 
-// The noise an RMS is judged against: σ₀, but not below kNoiseFloorSpacings × the point spacing
+// The noise a reach is scaled by: σ₀, but not below kNoiseFloorSpacings × the point spacing
 // (noise-free synthetic data have σ₀ ≈ 0 while two samplings of one surface still differ a little).
+inline constexpr double kNoiseFloorSpacings = kFitFloorSpacings;
 inline double noise_floor(double noise, double spacing) {
   return std::max(noise, kNoiseFloorSpacings * spacing);
 }
@@ -186,8 +187,14 @@ struct RefineSettings : CostSettings {
   // run), and tries it from a global pose.
   bool gicp_candidate = true;
   // The source's surface_noise (cloud_stats.hpp) when the caller has measured it (align() has);
-  // < 0: step 3 of `auto` measures it when in doubt.
+  // < 0: `auto` measures it (the fit's σ_s, icp/fit.hpp).
   double source_noise = -1;
+  // What the caller asks for beyond the pose (each costs a pass or more over the pairs): the final
+  // stage's covariance (IcpResult::covariance, pending_sigmas, and for `auto` onto a point cloud's
+  // tangent planes the model error, which needs the source's normals), and RefineResult::fit at
+  // the answer. align() asks for both.
+  bool covariance = false;
+  bool judge = false;
 };
 
 // The target of any number of refinements, prepared once: a copy in spatial order (the search,
@@ -266,6 +273,9 @@ struct RefineResult {
   // Step 3's test found the coarse stages' pose unconfirmed (`auto` only; measured even with
   // neither hops nor the GICP candidate, so a caller knows whether step 3 would try candidates).
   bool unconfirmed = false;
+  // With RefineSettings::judge, how the answer fits at the noise (icp/fit.hpp): the (thinned)
+  // source's pairs within the final stage's reach, one to one.
+  FitEvidence fit;
   // Target normals estimated so far when the target has none: only where pairs needed them
   // (normals.hpp, NormalCache), and of those, the neighbourhoods with no plane.
   std::size_t estimated_normals = 0;
@@ -281,6 +291,12 @@ inline const char* kernel_name(const CostSettings& settings) {
 // scale (data units, >= 0; 0: from the noise). std::invalid_argument for an unknown name, a
 // negative or non-finite scale, or a scale with "auto" (the schedule sets its own).
 void set_kernel(CostSettings& settings, std::string_view name, double scale);
+
+// How `source` at pose T fits `target` at the noise (icp/fit.hpp): its point-to-plane pairs within
+// `reach` (data units; infinity: all), a pair longer than half a point spacing only when it is the
+// shortest of its target point, judged with σ_s = `source_noise` (data units).
+FitEvidence measure_fit(const PointCloud& source, RefineTarget& target, const Eigen::Isometry3d& T,
+                        double reach, double source_noise, int threads = 0);
 
 // Throws DataError("source"/"target", …) when a cloud has too few points (fewer than 6, or fewer
 // than the normal neighbourhood for point-to-plane) or is degenerate (all points on one line or at

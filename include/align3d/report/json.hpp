@@ -29,6 +29,7 @@ nlohmann::json matrix6_json(const Matrix6d& m);      // 6 arrays of 6 numbers, r
 nlohmann::json to_json(const std::vector<Warning>& warnings);
 nlohmann::json to_json(const GlobalResult& g);
 nlohmann::json to_json(const Support& s);
+nlohmann::json to_json(const FitEvidence& f);
 
 // What the report says of the inputs (the library sees clouds, the caller knows their files).
 struct InputInfo {
