@@ -101,6 +101,15 @@ bool distinct(const AlignCandidate& a, const AlignCandidate& b, const PointCloud
          (a.transformation * c - b.transformation * c).norm() > 2 * a.support.reach;
 }
 
+// Two poses the global stage cannot tell apart: turned by at most two of its voxels over the
+// object's extent, the source's centroid moved by at most two voxels.
+bool within_resolution(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, double voxel,
+                       const PointCloud& source, double extent) {
+  const Eigen::Vector3d c = centroid(source);
+  return deg_to_rad(pose_error(a, b).rotation_deg) <= 2 * voxel / extent &&
+         (a * c - b * c).norm() <= 2 * voxel;
+}
+
 // Settings no run can use: std::invalid_argument naming the field (align.hpp). The command line
 // checks its flags first, with their names; this guards every other caller (the Python binding).
 void check_settings(const AlignSettings& s) {
@@ -145,7 +154,7 @@ class Pipeline {
         target_(target),
         s_(s),
         source_tree_(source.positions, s.threads),
-        source_scale_(measure_scale(source, source_tree_)),
+        source_scale_(measure_scale(source, source_tree_, s.threads)),
         reversed_(!target.refine.surface() && reverse_icp(source_scale_, target.scale)) {
     if (reversed_)
       source_fixed_ = std::make_unique<RefineTarget>(source, s.refine.normals, s.threads);
@@ -160,7 +169,10 @@ class Pipeline {
     // From a global pose, the GICP candidate but no hops.
     thorough_ = refine_;
     refine_.hop = s.refine.hop && (s.init == InitPolicy::kIdentity || s.init == InitPolicy::kPose);
-    if (s.init == InitPolicy::kAuto) refine_.gicp_candidate = false;
+    if (s.init == InitPolicy::kAuto) {
+      refine_.gicp_candidate = false;
+      refine_.probe = true;  // finished only if kept (finish_first)
+    }
     global_refine_ = thorough_;
     global_refine_.hop = false;
     global_ = s.global;
@@ -180,6 +192,7 @@ class Pipeline {
   AlignCandidate refine_from(const Eigen::Isometry3d& init, const std::string& path,
                              const RefineSettings& settings, RefineResult& r);
   void mend_unconfirmed(const Eigen::Isometry3d& init, const AlignCandidate& first);
+  void finish_first();
   GlobalResult run_global();
   AlignCandidate refine_global(RefineResult& r, bool& ambiguous);
   void warn_ambiguous_global();
@@ -212,9 +225,9 @@ AlignCandidate Pipeline::refine_from(const Eigen::Isometry3d& init, const std::s
   out_.timings.refine_ms += ms_since(start);
   start = Clock::now();
   if (!meter_)
-    meter_ =
-        std::make_unique<SupportMeter>(source_, target_.refine.cloud(), s_.threads, &source_tree_,
-                                       &target_.refine.tree(), &source_scale_, &target_.scale);
+    meter_ = std::make_unique<SupportMeter>(source_, target_.refine.cloud(), s_.threads,
+                                            &source_tree_, &target_.refine.tree(), &source_scale_,
+                                            &target_.scale, target_.refine.cache());
   // The structured noise the fit found is allowed for where the pose fits at the noise
   // (support.hpp).
   const bool fits = r.fit.ratio <= kConfirmedFit;
@@ -277,7 +290,8 @@ AlignCandidate Pipeline::refine_global(RefineResult& r, bool& ambiguous) {
     r = std::move(r2);
     return second;
   }
-  ambiguous = !clearly_better(best, second, false);
+  ambiguous = !clearly_better(best, second, false) &&
+              distinct(best, second, source_, global_.distinct_rotation_deg);
   return best;
 }
 
@@ -293,6 +307,12 @@ void Pipeline::warn_ambiguous_global() {
 void Pipeline::mend_unconfirmed(const Eigen::Isometry3d& init, const AlignCandidate& first) {
   const bool step3 = out_.refine.unconfirmed && (thorough_.hop || thorough_.gicp_candidate);
   out_.global = run_global();
+  // The global stage, from no initial pose, found the first answer's pose (its winner clear):
+  // independent evidence for it, which its ICP would only repeat.
+  if (out_.global->success && !out_.global->ambiguous && !first.weak &&
+      within_resolution(out_.global->T_target_source, first.transformation, out_.global->voxel,
+                        source_, std::min(source_scale_.extent, target_.scale.extent)))
+    return;
   std::optional<AlignCandidate> second;
   if (out_.global->success) {
     RefineResult r2;
@@ -328,6 +348,18 @@ void Pipeline::mend_unconfirmed(const Eigen::Isometry3d& init, const AlignCandid
                                  out_.global->message});
 }
 
+// The kept answer is the first run's, a probe that gave up (init auto, RefineSettings::probe): ICP
+// from there to the end, its answer in its place (the first of the candidates).
+void Pipeline::finish_first() {
+  RefineSettings finishing = refine_;
+  finishing.probe = false;
+  RefineResult r;
+  const AlignCandidate done = refine_from(out_.transformation, "initial", finishing, r);
+  out_.candidates.front() = done;
+  out_.candidates.pop_back();
+  keep(done, std::move(r));
+}
+
 AlignResult Pipeline::run() {
   const auto start = Clock::now();
   const InitPolicy policy = s_.init;
@@ -343,6 +375,7 @@ AlignResult Pipeline::run() {
           "ICP from the initial pose: " +
           (first.weak ? weaknesses(out_.refine, first.support).front().message : unconfirmed);
       mend_unconfirmed(init, first);
+      if (!out_.refine.finished) finish_first();
     }
   } else {
     out_.global = run_global();

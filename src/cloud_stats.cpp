@@ -3,9 +3,11 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <vector>
 
 #include "align3d/error.hpp"
+#include "detail/parallel.hpp"
 #include "detail/pca.hpp"
 
 namespace align3d {
@@ -22,51 +24,67 @@ std::size_t sample_step(std::size_t n, std::size_t samples) {
   return std::max<std::size_t>(1, n / std::max<std::size_t>(1, samples));
 }
 
+// The RMS residual of point i's k nearest neighbours about a quadric fitted to their heights over
+// their tangent plane (surface_noise); NaN for fewer than 7 neighbours.
+double quadric_rms(const PointCloud& cloud, const KdTree& tree, std::size_t i, int k,
+                   std::vector<Neighbor>& nb) {
+  const Eigen::Vector3d& p = cloud.positions[i];
+  tree.knn_unsorted(p, static_cast<std::size_t>(k), nb);
+  if (nb.size() < 7) return std::numeric_limits<double>::quiet_NaN();
+  // Height over the tangent plane of the neighbourhood (its principal axes), fitted by the
+  // quadric h = a u² + b uv + c v² + d u + e v + f: its residuals hold the noise and not the
+  // curvature, which a plane fit would count as noise on a curved part.
+  const auto eig = detail::neighbourhood_pca(cloud.positions, p, nb);
+  const Eigen::Matrix3d axes = eig.eigenvectors();
+  Eigen::MatrixXd A(static_cast<Eigen::Index>(nb.size()), 6);
+  Eigen::VectorXd h(static_cast<Eigen::Index>(nb.size()));
+  for (std::size_t j = 0; j < nb.size(); ++j) {
+    const Eigen::Vector3d d = axes.transpose() * (cloud.positions[nb[j].index] - p);
+    const double u = d(2), v = d(1);  // the two largest axes span the plane, d(0) is the height
+    A.row(static_cast<Eigen::Index>(j)) << u * u, u * v, v * v, u, v, 1.0;
+    h(static_cast<Eigen::Index>(j)) = d(0);
+  }
+  const Eigen::VectorXd coeffs = A.colPivHouseholderQr().solve(h);
+  const double sq = (A * coeffs - h).squaredNorm();
+  // Unbiased for the 6 fitted coefficients.
+  return std::sqrt(sq / static_cast<double>(nb.size() - 6));
+}
+
 }  // namespace
 
-double point_spacing(const PointCloud& cloud, const KdTree& tree, std::size_t samples) {
+double point_spacing(const PointCloud& cloud, const KdTree& tree, std::size_t samples,
+                     int threads) {
   const std::size_t n = cloud.size();
   if (n < 2) return 0.0;
-  std::vector<double> d;
-  std::vector<Neighbor> nb;
-  for (std::size_t i = 0; i < n; i += sample_step(n, samples)) {
+  const std::size_t step = sample_step(n, samples);
+  // Each sample's distance to its nearest distinct point, in place (NaN: none), then the median.
+  std::vector<double> d((n + step - 1) / step, std::numeric_limits<double>::quiet_NaN());
+  parallel_for(d.size(), threads, [&](std::size_t k) {
+    thread_local std::vector<Neighbor> nb;
+    const std::size_t i = k * step;
     tree.knn(cloud.positions[i], 2, nb);
     for (const auto& m : nb)
       if (m.index != i && m.sq_distance > 0) {
-        d.push_back(std::sqrt(m.sq_distance));
+        d[k] = std::sqrt(m.sq_distance);
         break;
       }
-  }
+  });
+  d.erase(std::remove_if(d.begin(), d.end(), [](double x) { return std::isnan(x); }), d.end());
   return upper_median(d);
 }
 
-double surface_noise(const PointCloud& cloud, const KdTree& tree, int k, std::size_t samples) {
+double surface_noise(const PointCloud& cloud, const KdTree& tree, int k, std::size_t samples,
+                     int threads) {
   const std::size_t n = cloud.size();
   if (n < 7 || k < 7) return 0.0;
-  std::vector<double> rms;
-  std::vector<Neighbor> nb;
-  for (std::size_t i = 0; i < n; i += sample_step(n, samples)) {
-    const Eigen::Vector3d& p = cloud.positions[i];
-    tree.knn_unsorted(p, static_cast<std::size_t>(k), nb);
-    if (nb.size() < 7) continue;
-    // Height over the tangent plane of the neighbourhood (its principal axes), fitted by the
-    // quadric h = a u² + b uv + c v² + d u + e v + f: its residuals hold the noise and not the
-    // curvature, which a plane fit would count as noise on a curved part.
-    const auto eig = detail::neighbourhood_pca(cloud.positions, p, nb);
-    const Eigen::Matrix3d axes = eig.eigenvectors();
-    Eigen::MatrixXd A(static_cast<Eigen::Index>(nb.size()), 6);
-    Eigen::VectorXd h(static_cast<Eigen::Index>(nb.size()));
-    for (std::size_t j = 0; j < nb.size(); ++j) {
-      const Eigen::Vector3d d = axes.transpose() * (cloud.positions[nb[j].index] - p);
-      const double u = d(2), v = d(1);  // the two largest axes span the plane, d(0) is the height
-      A.row(static_cast<Eigen::Index>(j)) << u * u, u * v, v * v, u, v, 1.0;
-      h(static_cast<Eigen::Index>(j)) = d(0);
-    }
-    const Eigen::VectorXd coeffs = A.colPivHouseholderQr().solve(h);
-    const double sq = (A * coeffs - h).squaredNorm();
-    // Unbiased for the 6 fitted coefficients.
-    rms.push_back(std::sqrt(sq / static_cast<double>(nb.size() - 6)));
-  }
+  const std::size_t step = sample_step(n, samples);
+  std::vector<double> rms((n + step - 1) / step);
+  parallel_for(rms.size(), threads, [&](std::size_t s) {
+    thread_local std::vector<Neighbor> nb;
+    rms[s] = quadric_rms(cloud, tree, s * step, k, nb);
+  });
+  rms.erase(std::remove_if(rms.begin(), rms.end(), [](double x) { return std::isnan(x); }),
+            rms.end());
   return upper_median(rms);
 }
 
@@ -99,8 +117,9 @@ double robust_extent(const PointCloud& cloud) {
   return (high - low).norm();
 }
 
-CloudScale measure_scale(const PointCloud& cloud, const KdTree& tree) {
-  return {robust_extent(cloud), point_spacing(cloud, tree), surface_noise(cloud, tree)};
+CloudScale measure_scale(const PointCloud& cloud, const KdTree& tree, int threads) {
+  return {robust_extent(cloud), point_spacing(cloud, tree, 2000, threads),
+          surface_noise(cloud, tree, 20, 2000, threads)};
 }
 
 void check_finite(const PointCloud& cloud, const std::string& what) {

@@ -6,13 +6,13 @@
 #include <numeric>
 #include <stdexcept>
 
-#include "align3d/coarse/voxel.hpp"
 #include "align3d/error.hpp"
 #include "align3d/icp/icp.hpp"
 #include "align3d/io/point_cloud_io.hpp"
 #include "align3d/kdtree.hpp"
 #include "align3d/normals.hpp"
 #include "align3d/plane/plane.hpp"
+#include "align3d/voxel.hpp"
 #include "detail/number.hpp"
 #include "detail/parallel.hpp"
 #include "detail/timing.hpp"

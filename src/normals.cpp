@@ -86,6 +86,10 @@ void NormalCache::require(const std::vector<std::uint32_t>& indices) {
     pending.push_back(i);
   }
   if (pending.empty()) return;  // nothing written: concurrent readers of a complete cache are safe
+  // In index order: neighbouring indices of a cloud in spatial order (RefineTarget's) are
+  // neighbouring points, whose searches share cached tree nodes (each normal is the same in any
+  // order).
+  std::sort(pending.begin(), pending.end());
   // Each item writes only its own point's normal and state.
   parallel_for(pending.size(), settings_.threads, [&](std::size_t k) {
     thread_local std::vector<Neighbor> nb;

@@ -10,7 +10,6 @@
 
 #include "align3d/cloud_stats.hpp"
 #include "align3d/coarse/global.hpp"
-#include "align3d/coarse/voxel.hpp"
 #include "align3d/error.hpp"
 #include "align3d/icp/icp.hpp"
 #include "align3d/icp/information.hpp"
@@ -18,6 +17,7 @@
 #include "align3d/kdtree.hpp"
 #include "align3d/stitch/multiview_icp.hpp"
 #include "align3d/stitch/pose_graph.hpp"
+#include "align3d/voxel.hpp"
 #include "detail/parallel.hpp"
 #include "detail/timing.hpp"
 #include "stitch/pair_candidates.hpp"

@@ -33,12 +33,13 @@ const KdTree* tree_for(const PointCloud& cloud, const KdTree* given, std::unique
 
 SupportMeter::SupportMeter(const PointCloud& source, const PointCloud& target, int threads,
                            const KdTree* source_tree, const KdTree* target_tree,
-                           const CloudScale* source_scale, const CloudScale* target_scale)
+                           const CloudScale* source_scale, const CloudScale* target_scale,
+                           NormalCache* target_normals)
     : source_(source), target_(target), threads_(threads) {
   source_tree_ = tree_for(source, source_tree, own_source_tree_, threads);
   target_tree_ = tree_for(target, target_tree, own_target_tree_, threads);
-  const CloudScale s = source_scale ? *source_scale : measure_scale(source, *source_tree_);
-  const CloudScale t = target_scale ? *target_scale : measure_scale(target, *target_tree_);
+  const CloudScale s = source_scale ? *source_scale : measure_scale(source, *source_tree_, threads);
+  const CloudScale t = target_scale ? *target_scale : measure_scale(target, *target_tree_, threads);
   base_.noise = std::sqrt(s.noise * s.noise + t.noise * t.noise);
   base_.spacing = std::max(s.spacing, t.spacing);
   base_.reach = kReachSpacings * base_.spacing + kReachSigmas * base_.noise;
@@ -47,8 +48,14 @@ SupportMeter::SupportMeter(const PointCloud& source, const PointCloud& target, i
   const bool source_object = base_.object == Role::kSource;
   NormalSettings ns;
   ns.threads = threads;
-  object_normals_ = std::make_unique<NormalCache>(
-      source_object ? source : target, source_object ? *source_tree_ : *target_tree_, ns);
+  if (!source_object && target_normals && &target_normals->cloud() == &target &&
+      target_normals->settings().k == ns.k) {
+    object_normals_ = target_normals;
+    return;
+  }
+  own_normals_ = std::make_unique<NormalCache>(source_object ? source : target,
+                                               source_object ? *source_tree_ : *target_tree_, ns);
+  object_normals_ = own_normals_.get();
 }
 
 SupportMeter::~SupportMeter() = default;

@@ -333,7 +333,7 @@ TEST(AlignWarnings, TwoAnswersSupportedAlikeAreAmbiguous) {
   vs.azimuth_deg = {30, 150};
   const synth::ObjectViews v = synth::make_object_views(vs);
   const AlignResult r = align(v.views[1].valid_points(), v.views[0].valid_points());
-  ASSERT_EQ(r.candidates.size(), 2u);
+  ASSERT_GE(r.candidates.size(), 2u);  // the global stage's runner-up too, when it has one
   const Eigen::Isometry3d truth = v.T_camera_object[0] * v.T_camera_object[1].inverse();
   EXPECT_LT(pose_error(r.candidates[1].transformation, truth).rotation_deg, 1.0);  // global: right
   EXPECT_GT(pose_error(r.candidates[0].transformation, truth).rotation_deg, 10.0);

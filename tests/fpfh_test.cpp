@@ -14,10 +14,10 @@
 #include <vector>
 
 #include "align3d/coarse/global.hpp"
-#include "align3d/coarse/voxel.hpp"
 #include "align3d/normals.hpp"
 #include "align3d/se3.hpp"
 #include "align3d/synth/scenes.hpp"
+#include "align3d/voxel.hpp"
 #include "detail/random.hpp"
 #include "test_util.hpp"
 

@@ -272,6 +272,7 @@ TEST_P(RangeScans, CovarianceOfTwoRenderedViews) {
     RefineSettings s;
     s.method = GetParam().method;
     s.covariance = true;
+    s.model_error = true;
     const Eigen::Isometry3d start =
         rigid_transform(1.0, Eigen::Vector3d(1, 2, 3), Eigen::Vector3d(1, 0, 0)) * truth;
     const RefineResult r = refine(v.views[1].valid_points(), v.views[0].valid_points(), start, s);
@@ -307,6 +308,7 @@ TEST(ModelError, PointsFromPointToPlanesPoseTowardTheTruth) {
       const PointCloud source = v.views[1].valid_points(), target = v.views[0].valid_points();
       RefineSettings with_covariance;
       with_covariance.covariance = true;
+      with_covariance.model_error = true;
       const RefineResult r = refine(source, target, truth, with_covariance);
       const Vector6d e = se3_log(r.icp.T_target_source * truth.inverse());
       const Vector6d moved = e + r.icp.model_error;

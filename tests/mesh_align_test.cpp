@@ -78,7 +78,12 @@ TEST(MeshAlign, AlignOntoAMeshFindsThePoseFromAnyStart) {
   EXPECT_FALSE(r.reversed);
   EXPECT_LT(test::rotation_error_deg(r.transformation, truth), 0.01);
   EXPECT_LT(test::translation_error(r.transformation, truth), 0.005);
-  EXPECT_TRUE(r.warnings.empty()) << r.warnings.front().message;
+  // From this view the faces the scan sees fit the part turned by 180° exactly as well (after ICP
+  // from either pose: overlap 0.410 and 0.411, the same RMS): the answer is right and says so.
+  ASSERT_EQ(r.warnings.size(), 1u);
+  EXPECT_EQ(r.warnings.front().code, "ambiguous") << r.warnings.front().message;
+  ASSERT_EQ(r.candidates.size(), 3u);
+  EXPECT_NEAR(test::rotation_error_deg(r.candidates[2].transformation, truth), 180.0, 0.1);
   // A prepared mesh target gives the same pose, to the bit.
   const PreparedTarget prepared(part);
   ASSERT_NE(prepared.surface(), nullptr);

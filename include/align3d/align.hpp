@@ -58,8 +58,8 @@ const char* to_string(InitPolicy p);
 
 // Support below either bound makes an answer weak (see above).
 constexpr double kWeakOverlap = 0.2;
-constexpr double kConfirmedOverlap = 0.5;  // kConfirmedFit, kClearlyBetter: icp/refine.hpp
-constexpr double kWeakFit = 2.0;           // FitEvidence::ratio (icp/fit.hpp)
+constexpr double kConfirmedOverlap =
+    0.5;  // kConfirmedFit, kWeakFit, kClearlyBetter: icp/refine.hpp
 // ICP's next update longer than this many standard deviations of its covariance
 // (IcpResult::pending_sigmas): it stopped short of its stationary point (warning stopped_short).
 constexpr double kStoppedShortSigmas = 2.0;

@@ -13,7 +13,9 @@ namespace align3d {
 
 // Median nearest-neighbour distance between distinct points of `cloud` (on at most `samples`
 // evenly spaced points): the point spacing. 0 for fewer than 2 points. `tree` indexes the cloud.
-double point_spacing(const PointCloud& cloud, const KdTree& tree, std::size_t samples = 2000);
+// `threads` (0: all cores) search in parallel; the result does not depend on it.
+double point_spacing(const PointCloud& cloud, const KdTree& tree, std::size_t samples = 2000,
+                     int threads = 1);
 
 // The surface noise: the median, over at most `samples` evenly spaced points, of the RMS residual
 // of each point's k nearest neighbours (k >= 7) about a quadric fitted to their heights over
@@ -23,7 +25,7 @@ double point_spacing(const PointCloud& cloud, const KdTree& tree, std::size_t sa
 // the generated scenes, flat and curved, k = 20); sharp edges do not move the median. 0 for fewer
 // than 7 points.
 double surface_noise(const PointCloud& cloud, const KdTree& tree, int k = 20,
-                     std::size_t samples = 2000);
+                     std::size_t samples = 2000, int threads = 1);
 
 // The diagonal of the box spanned, along each of the cloud's principal axes, by the 0.5th and
 // 99.5th percentiles of the coordinates: the size of the bulk of the cloud, which a few stray
@@ -38,8 +40,8 @@ struct CloudScale {
   double spacing = 0;  // point_spacing
   double noise = 0;    // surface_noise
 };
-// `tree` indexes the cloud.
-CloudScale measure_scale(const PointCloud& cloud, const KdTree& tree);
+// `tree` indexes the cloud; `threads` as for point_spacing.
+CloudScale measure_scale(const PointCloud& cloud, const KdTree& tree, int threads = 1);
 
 // Throws DataError(what, …) when a position or a normal has a NaN or Inf component (the readers
 // drop such points; a cloud built in memory may still hold them).

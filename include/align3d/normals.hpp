@@ -55,6 +55,7 @@ class NormalCache {
   const std::vector<Eigen::Vector3d>& normals() const { return normals_; }
   const PointCloud& cloud() const { return cloud_; }
   const KdTree& tree() const { return tree_; }
+  const NormalSettings& settings() const { return settings_; }
   std::size_t estimated() const { return estimated_; }  // points whose normal has been estimated
   std::size_t undefined() const { return undefined_; }  // of those, neighbourhoods with no plane
 

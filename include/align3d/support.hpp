@@ -42,9 +42,13 @@ struct Support {
 // normals on demand).
 class SupportMeter {
  public:
+  // `target_normals`: the target's normals estimated on demand (a NormalCache of `target` with
+  // k = 20, such as a RefineTarget's), shared when the target is the object instead of estimated
+  // again.
   SupportMeter(const PointCloud& source, const PointCloud& target, int threads = 0,
                const KdTree* source_tree = nullptr, const KdTree* target_tree = nullptr,
-               const CloudScale* source_scale = nullptr, const CloudScale* target_scale = nullptr);
+               const CloudScale* source_scale = nullptr, const CloudScale* target_scale = nullptr,
+               NormalCache* target_normals = nullptr);
   ~SupportMeter();
   SupportMeter(const SupportMeter&) = delete;
   SupportMeter& operator=(const SupportMeter&) = delete;
@@ -60,7 +64,8 @@ class SupportMeter {
   std::unique_ptr<KdTree> own_source_tree_, own_target_tree_;
   const KdTree* source_tree_;
   const KdTree* target_tree_;
-  std::unique_ptr<NormalCache> object_normals_;
+  std::unique_ptr<NormalCache> own_normals_;
+  NormalCache* object_normals_ = nullptr;
   Support base_;  // the pose-independent fields
 };
 

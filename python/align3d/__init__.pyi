@@ -241,6 +241,7 @@ def register(
     max_iterations: int = ...,
     tolerance: float = ...,
     normal_k: Optional[int] = ...,
+    model_error: bool = ...,
     threads: int = ...,
     ground_truth: Optional[Matrix] = ...,
     output: Optional[PathLike] = ...,

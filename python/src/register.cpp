@@ -80,10 +80,10 @@ std::string register_clouds(const PointCloud& source, const Target& target, cons
                             const std::string& global_method,
                             const std::optional<std::filesystem::path>& ppf_model, double voxel,
                             std::uint64_t seed, bool mutual, const std::string& reject,
-                            int max_iterations, double tolerance, int normal_k, int threads,
-                            const py::object& ground_truth, const std::string& source_path,
-                            const std::string& target_path, double read_ms,
-                            const py::object& progress) {
+                            int max_iterations, double tolerance, int normal_k, bool model_error,
+                            int threads, const py::object& ground_truth,
+                            const std::string& source_path, const std::string& target_path,
+                            double read_ms, const py::object& progress) {
   AlignSettings s;
   s.init = parse_choice("init", init, kInitPolicies);
   if (const auto T = pose(initial_pose, "init")) s.initial_pose = *T;
@@ -100,6 +100,7 @@ std::string register_clouds(const PointCloud& source, const Target& target, cons
   s.refine.termination.max_iterations = max_iterations;
   s.refine.termination.rms_change = tolerance;
   s.refine.normals.k = normal_k;
+  s.refine.model_error = model_error;
   s.threads = threads;
   const std::optional<Eigen::Isometry3d> truth = pose(ground_truth, "ground_truth");
 
@@ -150,7 +151,8 @@ py::dict defaults() {
           py::arg("reject") = to_string(a.refine.rejection),
           py::arg("max_iterations") = a.refine.termination.max_iterations,
           py::arg("tolerance") = a.refine.termination.rms_change,
-          py::arg("normal_k") = a.refine.normals.k, py::arg("threads") = a.threads),
+          py::arg("normal_k") = a.refine.normals.k, py::arg("model_error") = a.refine.model_error,
+          py::arg("threads") = a.threads),
       py::arg("rectify") =
           py::dict(py::arg("fit") = r.robust ? "robust" : "lsq", py::arg("seed") = r.ransac.seed));
 }
@@ -185,8 +187,9 @@ void def_register(py::module_& m) {
         py::arg("init"), py::arg("initial_pose"), py::arg("method"), py::arg("kernel"),
         py::arg("kernel_scale"), py::arg("global_method"), py::arg("ppf_model"), py::arg("voxel"),
         py::arg("seed"), py::arg("mutual"), py::arg("reject"), py::arg("max_iterations"),
-        py::arg("tolerance"), py::arg("normal_k"), py::arg("threads"), py::arg("ground_truth"),
-        py::arg("source_path"), py::arg("target_path"), py::arg("read_ms"), py::arg("progress"));
+        py::arg("tolerance"), py::arg("normal_k"), py::arg("model_error"), py::arg("threads"),
+        py::arg("ground_truth"), py::arg("source_path"), py::arg("target_path"), py::arg("read_ms"),
+        py::arg("progress"));
 }
 
 }  // namespace

@@ -16,13 +16,13 @@
 #include <unordered_map>
 
 #include "align3d/coarse/target_cache.hpp"
-#include "align3d/coarse/voxel.hpp"
 #include "align3d/error.hpp"
 #include "align3d/icp/icp.hpp"
 #include "align3d/io/atomic_file.hpp"
 #include "align3d/kdtree.hpp"
 #include "align3d/normals.hpp"
 #include "align3d/se3.hpp"
+#include "align3d/voxel.hpp"
 #include "detail/bucket_scatter.hpp"
 #include "detail/fast_acos.hpp"
 #include "detail/parallel.hpp"

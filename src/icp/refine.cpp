@@ -27,9 +27,20 @@ constexpr int kCoarseIterations = 30;
 constexpr double kFinalReciprocity = 1.0;
 constexpr double kReciprocityFloorSpacings = 0.5;
 constexpr int kMaxStages = 12;  // L/8 · 2^-12 is far below any useful spacing
+// A pose's fit confirms it only over at least this share of the source's points (unconfirmed()).
+constexpr double kMinFitShare = 0.01;
 // Coarse-to-fine in resolution too: the coarse stages see at most this many source points (every
 // m-th along the Morton curve, an even thinning), the final stage all of them.
 constexpr std::size_t kCoarsePoints = 50000;
+// Coarse-to-fine in resolution (issue 55): a coarse stage of reach τ runs on every 4^j-th point of
+// both clouds along their Morton curves (RefineTarget::level: a spacing of about s × 2^j), the
+// coarsest with s × 2^j <= τ / kLevelReach, when both keep kMinLevelPoints points; the stages near
+// the final reach see every point. A query then meets a bounded number of points within its reach,
+// where on the full cloud one far from the target visits every leaf within the distance to its
+// nearest point.
+constexpr double kLevelReach = 3.0;
+constexpr std::size_t kMinLevelPoints = 1500;
+constexpr double kLevelPrecision = 0.25;  // of a level's resolution (refine_schedule's probe)
 // Mesh targets (noise_stages): at most this many stages set by the noise, each until τ shrinks by
 // less than kNoiseShrink; τ never below kMinNoiseReach × the mesh's diagonal (noise-free data).
 constexpr int kNoiseStages = 4;
@@ -114,7 +125,7 @@ double noise_stages(const PointCloud& source, const MeshIndex& surface, double t
 }  // namespace
 
 RefineTarget::RefineTarget(const PointCloud& target, const NormalSettings& normals, int threads)
-    : normal_k_(normals.k) {
+    : normal_k_(normals.k), threads_(threads) {
   check_registrable(target, "target");
   cloud_ = reordered(target, spatial_order(target.positions));
   tree_ = std::make_unique<KdTree>(cloud_.positions, threads);
@@ -135,7 +146,7 @@ PointCloud mesh_target_sample(const MeshIndex& surface) {
 }
 
 RefineTarget::RefineTarget(std::shared_ptr<const MeshIndex> surface, int threads)
-    : surface_(std::move(surface)) {
+    : surface_(std::move(surface)), threads_(threads) {
   const PointCloud sample = mesh_target_sample(*surface_);
   cloud_ = reordered(sample, spatial_order(sample.positions));
   tree_ = std::make_unique<KdTree>(cloud_.positions, threads);
@@ -150,6 +161,44 @@ const std::vector<Eigen::Vector3d>& RefineTarget::normals(
   return cache_->normals();
 }
 
+namespace {
+
+// The level of a stage of reach `tau` over a target of spacing s (kLevelReach): j >= 1, or 0 for
+// the clouds as given.
+int level_for(double tau, double spacing) {
+  if (!(spacing > 0) || !(tau > 0)) return 0;
+  return std::max(0, static_cast<int>(std::floor(std::log2(tau / (kLevelReach * spacing)))));
+}
+
+// The indices 0, stride, 2 stride, ... below n.
+std::vector<std::uint32_t> every(std::size_t n, std::size_t stride) {
+  std::vector<std::uint32_t> kept;
+  for (std::size_t k = 0; k < n; k += stride) kept.push_back(static_cast<std::uint32_t>(k));
+  return kept;
+}
+
+}  // namespace
+
+const RefineTarget::Level& RefineTarget::level(int j) {
+  if (j < 1) throw std::invalid_argument("RefineTarget::level: j must be at least 1");
+  if (levels_.size() < static_cast<std::size_t>(j)) levels_.resize(static_cast<std::size_t>(j));
+  std::unique_ptr<Level>& slot = levels_[static_cast<std::size_t>(j - 1)];
+  if (!slot) {
+    auto l = std::make_unique<Level>();
+    l->resolution = std::ldexp(spacing(), j);
+    // cloud_ is in spatial order: every 4^j-th point is an even thinning, with the normals the
+    // stages near the final reach use too.
+    const std::vector<std::uint32_t> kept = every(cloud_.size(), std::size_t{1} << (2 * j));
+    normals(kept);
+    l->cloud = reordered(cloud_, kept);
+    if (cache_)
+      for (std::uint32_t i : kept) l->cloud.normals.push_back(cache_->normals()[i]);
+    l->tree = std::make_unique<KdTree>(l->cloud.positions, threads_);
+    slot = std::move(l);
+  }
+  return *slot;
+}
+
 void RefineTarget::estimate_all_normals() {
   if (cache_) {
     std::vector<std::uint32_t> all(cloud_.size());
@@ -159,6 +208,7 @@ void RefineTarget::estimate_all_normals() {
   spacing();
   extent();
   noise();
+  for (int j = 1; j <= level_for(kStartFraction * extent(), spacing()); ++j) level(j);
 }
 
 double RefineTarget::extent() {
@@ -167,12 +217,12 @@ double RefineTarget::extent() {
 }
 
 double RefineTarget::noise() {
-  if (noise_ < 0) noise_ = surface_noise(cloud_, *tree_);
+  if (noise_ < 0) noise_ = surface_noise(cloud_, *tree_, 20, 2000, threads_);
   return noise_;
 }
 
 double RefineTarget::spacing() {
-  if (spacing_ < 0) spacing_ = point_spacing(cloud_, *tree_);
+  if (spacing_ < 0) spacing_ = point_spacing(cloud_, *tree_, 2000, threads_);
   return spacing_;
 }
 
@@ -213,16 +263,22 @@ struct CoarseEnd {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
   double sigma = 0;
   Matrix6d hessian = Matrix6d::Zero();
+  bool abandoned = false;  // before the stages at full resolution (refine_schedule's probe)
 };
 
-// Step 2 from `init`: point-to-plane at τ = L/8, halved per stage down to `floor`.
-template <class Run>
+// Step 2 from `init`: point-to-plane at τ = L/8, halved per stage down to `floor`; before each
+// stage `abandon(T, τ)` may end them (CoarseEnd::abandoned).
+template <class Run, class Abandon>
 CoarseEnd coarse_stages(const PointCloud& source, const Eigen::Isometry3d& init, double diagonal,
-                        double floor, IcpSettings coarse, Run&& run) {
+                        double floor, IcpSettings coarse, Run&& run, Abandon&& abandon) {
   CoarseEnd end;
   end.T = init;
   double tau = kStartFraction * diagonal;
   for (int stage = 0; stage < kMaxStages && tau > floor; ++stage, tau *= kShrink) {
+    if (abandon(end.T, tau)) {
+      end.abandoned = true;
+      break;
+    }
     coarse.rejection = RejectionRule::max_distance(tau);
     coarse.kernel_scale = kKernelFraction * tau;
     const IcpResult r = run(source, end.T, coarse);
@@ -234,27 +290,32 @@ CoarseEnd coarse_stages(const PointCloud& source, const Eigen::Isometry3d& init,
   return end;
 }
 
-// Step 3 of refine.hpp, basin hopping: `end` when its pose is confirmed (its fit within `reach`,
-// icp/fit.hpp, at most kConfirmedFit; `judge(T, reach)`); else candidates are tried, each the
-// coarse stages (`coarse(start, method)`) from a start, and one that lays clearly more source
-// points within max(3 s, 4 σ₀) of the target is kept: hops along the weakest direction of the kept
-// pose's system (settings.hop; again from a kept pose still unconfirmed, at most kHopChain times),
-// then, if still unconfirmed, GICP's from `init` (settings.gicp_candidate), and if it is kept, hops
-// from it with GICP's stages. The candidates' stages are recorded with StageRecord::hop.
+// Whether a fit at the noise (icp/fit.hpp) leaves a pose of a source of `points` unconfirmed: too
+// few pairs within the reach, fewer than min_pairs or than kMinFitShare of the points (the stages
+// broke off far from the object, or laid a sliver of it on the surface and the rest off), whatever
+// the fit of those few, or a ratio above kConfirmedFit. The share: the animal's wrong poses from
+// 30° (Refine.TwoRangeScansOfTheAnimalFromThirtyDegrees) fitted 11-51 of 14,612 points at ratios
+// 0.9-1.6 after the final stage; a right pose there pairs thousands.
+bool unconfirmed(const FitEvidence& f, std::size_t points) {
+  return f.pairs < min_pairs(IcpMethod::kPointToPlane) ||
+         static_cast<double>(f.pairs) < kMinFitShare * static_cast<double>(points) ||
+         f.ratio > kConfirmedFit;
+}
+
+// Step 3 of refine.hpp, basin hopping from the coarse stages' `end`, whose answer was not
+// confirmed: candidates are tried, each the coarse stages (`coarse(start, method)`) from a start,
+// and one that lays clearly more source points within max(3 s, 4 σ₀) of the target is kept: hops
+// along the weakest direction of the kept pose's system (settings.hop; again from a kept pose still
+// unconfirmed at its coarse end, `judge(T, reach)`, at most kHopChain times), then, if still
+// unconfirmed, GICP's from `init` (settings.gicp_candidate), and if it is kept, hops from it with
+// GICP's stages. The candidates' stages are recorded with StageRecord::hop.
 template <class Coarse, class Measure, class Judge>
 CoarseEnd hop_basins(const PointCloud& source, RefineTarget& target, const Eigen::Isometry3d& init,
                      const CoarseEnd& end, double reach, double source_noise,
                      const RefineSettings& settings, RefineResult& out, Coarse&& coarse,
                      Measure&& measure, Judge&& judge) {
-  IcpResult here = measure(end.T, reach);
-  double ratio = judge(end.T, reach).ratio;
-  // Too few pairs within the reach (the coarse stages broke off far from the object) is no
-  // confirmation, whatever the fit of those few.
-  auto unconfirmed = [&] {
-    return here.stop_reason == StopReason::kTooFewCorrespondences || ratio > kConfirmedFit;
-  };
-  out.unconfirmed = unconfirmed();
-  if (!out.unconfirmed || !(settings.hop || settings.gicp_candidate)) return end;
+  bool doubt = true;
+  const Eigen::Vector3d centre = measure(end.T, reach).centre;  // of the systems (icp.hpp)
   // Candidates are compared by the source points they lay within a reach of the data's noise
   // (not `reach`, which grows with the RMS of the pose the coarse stages reached: where those
   // broke off far from the object it let almost every point count for any candidate).
@@ -278,8 +339,7 @@ CoarseEnd hop_basins(const PointCloud& source, RefineTarget& target, const Eigen
     if (there <= best_overlap + margin) return false;
     best = candidate;
     best_overlap = there;
-    here = measure(candidate.T, reach);
-    ratio = judge(candidate.T, reach).ratio;
+    doubt = unconfirmed(judge(candidate.T, reach), source.size());  // at its coarse end
     method = cost;
     out.hopped = true;
     return true;
@@ -287,14 +347,14 @@ CoarseEnd hop_basins(const PointCloud& source, RefineTarget& target, const Eigen
   // From a kept pose still unconfirmed, hops along the weakest direction of its system, with the
   // cost that reached it.
   auto hops = [&] {
-    for (int chain = 0; chain < kHopChain && unconfirmed(); ++chain) {
+    for (int chain = 0; chain < kHopChain && doubt; ++chain) {
       const SystemAnalysis system = analyse_system(best.hessian);
       if (!system.usable) return;
       // The weakest eigenvector y of the dimensionless system (a unit of it turns by 1 rad or
       // moves by the lever arm ℓ = 1 / scale(0), analyse_system) as the update
       // (ω, v) = ℓ · scale ⊙ y about the system's centre, times the hop's size.
       const Vector6d unit = system.scale.cwiseProduct(system.vectors.col(0)) / system.scale(0);
-      const Eigen::Translation3d to_world(here.centre);
+      const Eigen::Translation3d to_world(centre);
       const CoarseEnd from = best;
       const IcpMethod cost = method;
       bool kept = false;
@@ -308,8 +368,7 @@ CoarseEnd hop_basins(const PointCloud& source, RefineTarget& target, const Eigen
     }
   };
   if (settings.hop) hops();
-  if (settings.gicp_candidate && unconfirmed() && try_candidate(init, IcpMethod::kGicp) &&
-      settings.hop)
+  if (settings.gicp_candidate && doubt && try_candidate(init, IcpMethod::kGicp) && settings.hop)
     hops();
   return best;
 }
@@ -333,17 +392,17 @@ const PointCloud& with_normals(const PointCloud& source, IcpMethod method,
 double noise_of(const PointCloud& source, const RefineSettings& settings) {
   if (settings.source_noise >= 0) return settings.source_noise;
   const KdTree tree(source.positions, settings.threads);
-  return surface_noise(source, tree);
+  return surface_noise(source, tree, 20, 2000, settings.threads);
 }
 
 // The `auto` schedule (refine.hpp): coarse stages at a shrinking τ, basin hopping when their pose
 // is not confirmed, then the final stage with `last` (method, termination, threads, covariance, and
 // the kernel when one was asked for). `measure` evaluates a pose without moving it (an ICP run of
 // no update).
-template <class Run, class Measure>
+template <class Run, class RunLevel, class Measure>
 void refine_schedule(const PointCloud& source, RefineTarget& target, const Eigen::Isometry3d& init,
                      const RefineSettings& settings, IcpSettings last, RefineResult& out, Run&& run,
-                     Measure&& measure) {
+                     RunLevel&& run_level, Measure&& measure) {
   // L: the extent of the object, the smaller of the two clouds (cloud_stats.hpp), so that a part
   // registered into a wide scene is not pulled by clutter within an eighth of the scene's size. A
   // cloud of duplicated points has no measurable spacing; fall back to a fine fraction of L.
@@ -364,43 +423,106 @@ void refine_schedule(const PointCloud& source, RefineTarget& target, const Eigen
   coarse.method = IcpMethod::kPointToPlane;
   coarse.termination = {kCoarseIterations, 1e-4, true, 1e-5, 1e-6};
   coarse.kernel = RobustKernel::kGemanMcClure;
-  CoarseEnd end = coarse_stages(coarse_source, init, diagonal, floor, coarse, run);
-  {  // Step 3, in a block of its own: the source's copy with normals lives only while it hops.
-    PointCloud copy;
-    const PointCloud* oriented = nullptr;  // the coarse source with normals, for GICP's candidates
-    auto candidate = [&](const Eigen::Isometry3d& start, IcpMethod method) {
-      IcpSettings stages = coarse;
-      stages.method = method;
-      if (!needs_source_normals(method))
-        return coarse_stages(coarse_source, start, diagonal, floor, stages, run);
-      if (coarse_source.size() < static_cast<std::size_t>(settings.normals.k)) return end;
-      if (!oriented) oriented = &with_normals(coarse_source, method, settings, copy);
-      return coarse_stages(*oriented, start, diagonal, floor, stages, run);
-    };
-    end = hop_basins(
-        coarse_source, target, init, end, std::max(floor, kFinalSigmas * end.sigma), source_noise,
-        settings, out, candidate,
-        [&](const Eigen::Isometry3d& T, double reach) { return measure(coarse_source, T, reach); },
-        judge);
+  // The source's levels: every 4^j-th point of the coarse source along its Morton curve, as the
+  // target's; with normals (of `from`'s points) for the costs that read them (GICP).
+  const std::vector<std::uint32_t> curve = spatial_order(coarse_source.positions);
+  std::vector<PointCloud> levels[2];
+  auto source_level = [&](int j, const PointCloud& from) -> const PointCloud& {
+    std::vector<PointCloud>& built = levels[from.has_normals()];
+    if (built.size() < static_cast<std::size_t>(j)) built.resize(static_cast<std::size_t>(j));
+    PointCloud& l = built[static_cast<std::size_t>(j - 1)];
+    if (l.empty()) {
+      std::vector<std::uint32_t> kept;
+      for (std::uint32_t k : every(curve.size(), std::size_t{1} << (2 * j)))
+        kept.push_back(curve[k]);
+      l = reordered(from, kept);
+    }
+    return l;
+  };
+  // The level a stage of reach τ runs at (RefineTarget::level), 0 for the clouds as given.
+  auto level_of = [&](double tau) {
+    for (int j = level_for(tau, target.spacing()); j >= 1; --j)
+      if (target.level(j).cloud.size() >= kMinLevelPoints &&
+          source_level(j, coarse_source).size() >= kMinLevelPoints)
+        return j;
+    return 0;
+  };
+  // A coarse stage: at its level, else on `from`.
+  double resolution = 0;  // of the last stage run at a level
+  auto stage = [&](const PointCloud& from, const Eigen::Isometry3d& T, const IcpSettings& s) {
+    const int j = level_of(s.rejection.distance);
+    if (j == 0) return run(from, T, s);
+    resolution = target.level(j).resolution;
+    return run_level(source_level(j, from), target.level(j), T, s);
+  };
+  // A probe (RefineSettings::probe) gives up before the stages at full resolution when the
+  // levels' pose fits weakly at the final reach: its residuals' RMS above kWeakFit times what a
+  // right pose leaves (icp/fit.hpp), or a quarter of the last level's resolution, the precision
+  // the levels can give where the noise is finer. Measured on the dragon's neighbours: right
+  // starts there at RMS 0.4-0.8 of that, wrong ones at 2.7-3.1 with a tenth of the pairs, whose
+  // stages at full resolution would slide on to their iteration caps.
+  bool probed = !settings.probe || level_of(kStartFraction * diagonal) == 0;
+  auto abandon = [&](const Eigen::Isometry3d& T, double tau) {
+    if (probed || level_of(tau) > 0) return false;
+    probed = true;
+    const FitEvidence f = judge(T, floor);
+    return f.pairs < min_pairs(IcpMethod::kPointToPlane) ||
+           f.rms > kWeakFit * std::max(f.expected, kLevelPrecision * resolution);
+  };
+  auto never = [](const Eigen::Isometry3d&, double) { return false; };
+  CoarseEnd end = coarse_stages(coarse_source, init, diagonal, floor, coarse, stage, abandon);
+  auto reach_of = [&](const CoarseEnd& e) { return std::max(floor, kFinalSigmas * e.sigma); };
+  if (end.abandoned) {
+    out.icp = measure(coarse_source, end.T, reach_of(end));
+    out.fit = judge(end.T, reach_of(end));
+    out.unconfirmed = true;
+    out.finished = false;
+    return;
   }
-  Eigen::Isometry3d T = end.T;
-  const double sigma = end.sigma;
-  double tau = std::max(floor, kFinalSigmas * sigma);
-  if (target.surface()) tau = noise_stages(coarse_source, *target.surface(), tau, coarse, T, run);
-  last.rejection = RejectionRule::max_distance(tau);
-  if (!target.surface()) {
-    last.reciprocity = kFinalReciprocity;
-    last.reciprocity_floor = kReciprocityFloorSpacings * spacing;
-    last.tangent_planes = true;
-  }
-  if (!settings.kernel) {
-    last.kernel = RobustKernel::kGemanMcClure;
-    last.kernel_scale = kKernelFraction * tau;
-  } else {
-    last.kernel_scale = kernel_scale_or_tuned(last.kernel, settings.kernel_scale, sigma);
-  }
-  out.icp = run(source, T, last);
-  if (settings.judge) out.fit = judge(out.icp.T_target_source, tau);
+  // Step 4 from the end of the coarse stages `e`: onto a mesh, the stages set by its noise first.
+  auto finish = [&](const CoarseEnd& e) {
+    Eigen::Isometry3d T = e.T;
+    double tau = reach_of(e);
+    if (target.surface()) tau = noise_stages(coarse_source, *target.surface(), tau, coarse, T, run);
+    IcpSettings final_stage = last;
+    final_stage.rejection = RejectionRule::max_distance(tau);
+    if (!target.surface()) {
+      final_stage.reciprocity = kFinalReciprocity;
+      final_stage.reciprocity_floor = kReciprocityFloorSpacings * spacing;
+      final_stage.tangent_planes = true;
+    }
+    if (!settings.kernel) {
+      final_stage.kernel = RobustKernel::kGemanMcClure;
+      final_stage.kernel_scale = kKernelFraction * tau;
+    } else {
+      final_stage.kernel_scale = kernel_scale_or_tuned(last.kernel, settings.kernel_scale, e.sigma);
+    }
+    final_stage.judge = {std::hypot(source_noise, target.noise()), target.spacing()};
+    out.icp = run(source, T, final_stage);
+    out.fit = out.icp.fit;
+  };
+  finish(end);
+  // Step 3 when the answer is not confirmed, from the coarse stages' end; the final stage again
+  // from a candidate it keeps.
+  out.unconfirmed = out.icp.stop_reason == StopReason::kTooFewCorrespondences ||
+                    unconfirmed(out.fit, source.size());
+  if (!out.unconfirmed || !(settings.hop || settings.gicp_candidate)) return;
+  PointCloud copy;
+  const PointCloud* oriented = nullptr;  // the coarse source with normals, for GICP's candidates
+  auto candidate = [&](const Eigen::Isometry3d& start, IcpMethod method) {
+    IcpSettings stages = coarse;
+    stages.method = method;
+    if (!needs_source_normals(method))
+      return coarse_stages(coarse_source, start, diagonal, floor, stages, stage, never);
+    if (coarse_source.size() < static_cast<std::size_t>(settings.normals.k)) return end;
+    if (!oriented) oriented = &with_normals(coarse_source, method, settings, copy);
+    return coarse_stages(*oriented, start, diagonal, floor, stages, stage, never);
+  };
+  const CoarseEnd best = hop_basins(
+      coarse_source, target, init, end, reach_of(end), source_noise, settings, out, candidate,
+      [&](const Eigen::Isometry3d& T, double reach) { return measure(coarse_source, T, reach); },
+      judge);
+  if (out.hopped) finish(best);
 }
 
 }  // namespace
@@ -418,11 +540,12 @@ RefineResult refine(const PointCloud& given_source, RefineTarget& target,
         std::to_string(target.cloud().size()) + " points; " +
             (automatic ? std::string("refinement") : std::string(to_string(settings.method))) +
             " needs at least the normal neighbourhood k = " + std::to_string(target.normal_k()));
-  // The schedule's final stage onto a point cloud's tangent planes (point-to-plane, point-to-point:
-  // the methods that do not read the source's normals themselves) measures their model error with
-  // the symmetric step (IcpResult::model_error), which reads them (where the source has a
-  // neighbourhood's worth of points).
-  const bool measured_planes = automatic && settings.covariance &&
+  // Asked for (RefineSettings::model_error), the schedule's final stage onto a point cloud's
+  // tangent planes (point-to-plane, point-to-point: the methods that do not read the source's
+  // normals themselves) measures their model error with the symmetric step
+  // (IcpResult::model_error), which reads them (where the source has a neighbourhood's worth of
+  // points).
+  const bool measured_planes = automatic && settings.covariance && settings.model_error &&
                                !needs_source_normals(settings.method) && !target.surface() &&
                                given_source.size() >= static_cast<std::size_t>(settings.normals.k);
   const IcpMethod normals_for = measured_planes ? IcpMethod::kSymmetric : settings.method;
@@ -441,6 +564,13 @@ RefineResult refine(const PointCloud& given_source, RefineTarget& target,
   auto run = [&](const PointCloud& from, const Eigen::Isometry3d& T, const IcpSettings& s) {
     IcpResult r = unrecorded(from, T, s);
     append(out, r, s);
+    return r;
+  };
+  auto run_level = [&](const PointCloud& from, const RefineTarget::Level& level,
+                       const Eigen::Isometry3d& T, const IcpSettings& s) {
+    IcpResult r = icp(from, level.cloud, *level.tree, T, s);
+    append(out, r, s);
+    out.stages.back().resolution = level.resolution;
     return r;
   };
 
@@ -472,7 +602,7 @@ RefineResult refine(const PointCloud& given_source, RefineTarget& target,
     measured.rejection = RejectionRule::max_distance(reach);
     return unrecorded(from, T, measured);
   };
-  refine_schedule(source, target, init, settings, last, out, run, measure);
+  refine_schedule(source, target, init, settings, last, out, run, run_level, measure);
   return out;
 }
 

@@ -18,7 +18,8 @@ nlohmann::json refine_json(const RefineResult& r) {
                       {"max_distance", s.max_distance},
                       {"first_iteration", s.first_iteration},
                       {"iterations", s.iterations},
-                      {"hop", s.hop}});
+                      {"hop", s.hop},
+                      {"resolution", s.resolution}});
   nlohmann::json weak = nlohmann::json::array();
   for (const auto& w : r.icp.degenerate_directions)
     weak.push_back({{"rotation", to_json(w.rotation)},

@@ -38,7 +38,7 @@ std::vector<ScanData> prepare_scans(const std::vector<PointCloud>& scans,
     ns.viewpoint = d.viewpoint;
     ns.threads = inner;
     estimate_normals(d.cloud, *d.tree, ns);  // the file's normals may point anywhere
-    d.scale = measure_scale(d.cloud, *d.tree);
+    d.scale = measure_scale(d.cloud, *d.tree, inner);
   });
   return out;
 }

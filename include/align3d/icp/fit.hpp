@@ -17,7 +17,7 @@
 // ratio = RMS / e: the bulk at the noise and no tail beyond it give ≈ 1-1.5; a wrong local minimum
 // lays part of the object on the surface and leaves the rest off, a tail that raises the RMS far
 // above the bulk's scale, or, off the surface altogether, σ_r far above half a spacing. A pose is
-// confirmed with a ratio at most kConfirmedFit (refine.hpp) and weak above kWeakFit (align.hpp).
+// confirmed with a ratio at most kConfirmedFit and weak above kWeakFit (refine.hpp).
 // Calibrated on real and generated pairs: bench/README.md, "Expected residual".
 #pragma once
 
@@ -30,6 +30,12 @@ namespace align3d {
 // (noise-free synthetic data: two samplings of one surface still differ a little).
 inline constexpr double kStructuredSpacings = 0.5;
 inline constexpr double kFitFloorSpacings = 0.05;
+
+// What a fit is judged against: σ₀ (`noise`, data units; < 0: not judged) and the point spacing.
+struct FitScale {
+  double noise = -1;
+  double spacing = 0;
+};
 
 struct FitEvidence {
   double ratio = 0;       // RMS / expected (dimensionless; the test statistic)

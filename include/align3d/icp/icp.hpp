@@ -10,6 +10,7 @@
 
 #include "align3d/icp/degeneracy.hpp"
 #include "align3d/icp/factors.hpp"
+#include "align3d/icp/fit.hpp"
 #include "align3d/icp/kernels.hpp"
 #include "align3d/icp/rejection.hpp"
 #include "align3d/icp/termination.hpp"
@@ -55,6 +56,11 @@ struct IcpSettings {
   // normal equations), by the closed-form step, and its covariance is point-to-plane's. refine()
   // sets it in its final stage. Read by point-to-point only.
   bool tangent_planes = false;
+  // With judge.noise >= 0, IcpResult::fit: the returned pose's own pairs (the kept ones the update
+  // used, none set aside) judged at the noise (icp/fit.hpp), where the run reads the target's
+  // normals or surface (every method but point-to-point sample to sample). refine() asks for it in
+  // its final stage.
+  FitScale judge;
   int threads = 0;  // 0: all cores; the result does not depend on it
 };
 
@@ -106,6 +112,8 @@ struct IcpResult {
   // (tests/icp_methods_test.cpp, Covariance/RangeScans): point-to-plane's NEES 20 → 6.8 on the
   // test object, 11 → 6.5 on the animal (expected 6). Zero otherwise.
   Vector6d model_error = Vector6d::Zero();
+  // With IcpSettings::judge: how the returned pose fits at the noise (icp/fit.hpp); zero otherwise.
+  FitEvidence fit;
 };
 
 // Registers `source` onto `target` starting from `init` (target ≈ T·source). `tree` must index

@@ -13,27 +13,38 @@
 //      each time a stage has settled, pairs weighted by a Geman-McClure kernel of scale τ/2, so far
 //      pairs (outliers, the intruder wall) pull little while the distinctive structure (box, cap)
 //      stays in reach long enough to fix x, y and yaw;
-//   3. basin hopping (Wales and Doye 1997) when the pose the coarse stages reached is not
-//      confirmed by the data: its fit within the final reach τ_f = max(3 s, 4 σ̂) (σ̂: the last
-//      coarse stage's RMS, i.e. the noise) above kConfirmedFit (icp/fit.hpp: the point-to-plane
-//      residuals against those a right pose leaves), or too few pairs within τ_f (the stages
-//      broke off far from the object), the test align() calls unconfirmed. The coarse stages run
+//   3. basin hopping (Wales and Doye 1997) when the answer the final stage (step 4, run first
+//      from the coarse stages' pose) reaches is not confirmed by the data: its fit, the final
+//      stage's own one-to-one pairs within τ_f = max(3 s, 4 σ̂) (σ̂: the last coarse stage's RMS),
+//      above kConfirmedFit (icp/fit.hpp: the point-to-plane residuals against those a right pose
+//      leaves), or too few pairs (fewer than min_pairs or 1 % of the source: the stages broke off
+//      far from the object, or laid a sliver of it on the surface), the test align() calls
+//      unconfirmed. The final stage decides rather than the coarse stages' end, whose pose is
+//      only as precise as their weighted, not one-to-one pairs: on data far finer than its
+//      spacing that end looked unconfirmed on right poses and paid for hops. The coarse stages run
 //      again
 //      from the pose moved along the direction their last system constrains least (Gelfand et al.
 //      2003: a near-symmetry, where ICP's pairs exert almost no pull) by ±kHopStep (a turn of 29°),
 //      then ±2 kHopStep (57°) and ±3 kHopStep (86°) while none is clearly better; a start is kept
 //      when it lays kClearlyBetter more of the source within max(3 s, 4 σ₀) of the target (a reach
 //      of the data's noise, whatever the candidates' RMS). From a kept pose still unconfirmed the
-//      hops go on, at most kHopChain times. If the pose is still unconfirmed after them, GICP's
-//      coarse stages from the start are one more candidate (the source's normals are estimated
-//      for it), kept on the same test, and the hops from it rerun GICP's stages;
+//      hops go on, at most kHopChain times (a candidate is judged at its coarse end). If the pose
+//      is still unconfirmed after them, GICP's coarse stages from the start are one more candidate
+//      (the source's normals are estimated for it), kept on the same test, and the hops from it
+//      rerun GICP's stages; the final stage runs again from the candidate kept;
 //   4. the requested metric runs to convergence with τ = max(3 s, 4 σ̂), still weighted; onto a
 //      point cloud, a pair longer than s/2 enters the update only when it is the shortest pair of
 //      its target point (IcpSettings::reciprocity, 1; below), and point-to-point pairs each
 //      source point with its foot on its partner's tangent plane, not with the sample
 //      (IcpSettings::tangent_planes; below).
 // On large clouds the coarse stages of step 2 use an even thinning of the source to at most 50 000
-// points (every m-th point along a Morton curve); the final stage uses every point.
+// points (every m-th point along a Morton curve); the final stage uses every point. A coarse stage
+// whose reach τ spans kLevelReach (3) resolutions of a level runs on that level of both clouds:
+// every 4^j-th point in spatial order (RefineTarget::level), at least 1 500 points each, so a far
+// start's stages, where most queries find nothing within τ after a long descent, search a tree a
+// 4^j-th the size with a 4^j-th of the queries; the search is bounded by τ (kdtree.hpp). On the
+// dragon's 40 000-point scans the stages from L/8 down to 6 spacings run at levels 2 and 1
+// (issue 55: 1.4-2.8 s a pair before, with the fit below, 0.1-0.2 s).
 // Target normals are used for `auto` whatever the final metric. The coarse stages run
 // point-to-plane whatever the final metric. GICP in the coarse stages lost the chapter scene from
 // 12° (7.4° off at the end); the symmetric cost, whose source normals are flipped to face the
@@ -146,6 +157,8 @@ struct CostSettings {
 // and when one pose is clearly better than another: it lays kClearlyBetter more of the object (a
 // share of its points) on the other cloud's surface.
 inline constexpr double kConfirmedFit = 1.75;
+// Above it a fit is weak (align(): the high_rms warning; a probe gives up, refine.cpp).
+inline constexpr double kWeakFit = 2.0;
 inline constexpr double kClearlyBetter = 0.05;
 
 // The noise a reach is scaled by: σ₀, but not below kNoiseFloorSpacings × the point spacing
@@ -189,12 +202,21 @@ struct RefineSettings : CostSettings {
   // The source's surface_noise (cloud_stats.hpp) when the caller has measured it (align() has);
   // < 0: `auto` measures it (the fit's σ_s, icp/fit.hpp).
   double source_noise = -1;
-  // What the caller asks for beyond the pose (each costs a pass or more over the pairs): the final
-  // stage's covariance (IcpResult::covariance, pending_sigmas, and for `auto` onto a point cloud's
-  // tangent planes the model error, which needs the source's normals), and RefineResult::fit at
-  // the answer. align() asks for both.
+  // What the caller asks for beyond the pose: the final stage's covariance (IcpResult::covariance
+  // and pending_sigmas: a pass over the pairs), with `model_error` also point-to-plane's and
+  // point-to-point's model error for `auto` onto a point cloud's tangent planes (IcpResult::
+  // model_error: it needs the source's normals, a third more time on two 40 000-point scans), and
+  // RefineResult::fit at the answer (`auto` measures it anyway). align() asks for the covariance
+  // and the fit.
   bool covariance = false;
+  bool model_error = false;
   bool judge = false;
+  // A probe: `auto` gives up before its stages at full resolution when the pose its coarser
+  // levels reached fits weakly (icp/fit.hpp, above kWeakFit; RefineResult::finished false),
+  // rather than let them slide on from a start a caller will look beyond anyway: align()'s first
+  // run under init auto, which goes to the global stage next and finishes this answer only if it
+  // keeps it. Clouds too small for levels are never given up on.
+  bool probe = false;
 };
 
 // The target of any number of refinements, prepared once: a copy in spatial order (the search,
@@ -239,8 +261,17 @@ class RefineTarget {
   double spacing();                              // point_spacing(), measured once
   double extent();                               // robust_extent(), measured once
   double noise();                                // surface_noise(), measured once
-  // Estimates every normal, the spacing, the extent and the noise now (for a target shared by many
-  // calls).
+  // The target at a coarser resolution, for the schedule's coarse stages (step 2): every 4^j-th
+  // point of cloud() (j >= 1; an even thinning, the cloud being in spatial order), about
+  // spacing() × 2^j apart, with their normals and a kd-tree. Built on first use.
+  struct Level {
+    double resolution = 0;  // spacing() × 2^j
+    PointCloud cloud;
+    std::unique_ptr<KdTree> tree;
+  };
+  const Level& level(int j);
+  // Estimates every normal, the spacing, the extent, the noise and every level the schedule can use
+  // (coarser than its first reach L/8 needs none) now (for a target shared by many calls).
   void estimate_all_normals();
 
  private:
@@ -248,7 +279,9 @@ class RefineTarget {
   std::shared_ptr<const MeshIndex> surface_;
   std::unique_ptr<KdTree> tree_;
   std::unique_ptr<NormalCache> cache_;
+  std::vector<std::unique_ptr<Level>> levels_;  // levels_[j - 1]: level(j), once built
   int normal_k_ = 20;
+  int threads_ = 0;
   double spacing_ = -1, extent_ = -1, noise_ = -1;
 };
 
@@ -260,6 +293,9 @@ struct StageRecord {
                             // update)
   int iterations = 0;
   bool hop = false;  // a coarse stage of a step-3 candidate: from a hop's start, or GICP's
+  // The resolution it ran at: the nominal spacing of both clouds' level (RefineTarget::level), or
+  // 0 for the clouds as given.
+  double resolution = 0;
 };
 
 struct RefineResult {
@@ -270,12 +306,16 @@ struct RefineResult {
   double point_spacing = 0;  // the target spacing s used for `auto` (0 otherwise)
   int hops = 0;              // candidates step 3 tried (`auto` only; 0: the pose was confirmed)
   bool hopped = false;       // one of them was kept
-  // Step 3's test found the coarse stages' pose unconfirmed (`auto` only; measured even with
-  // neither hops nor the GICP candidate, so a caller knows whether step 3 would try candidates).
+  // Step 3's test found the answer unconfirmed (`auto` only: its fit, above kConfirmedFit, or too
+  // few pairs; measured even with neither hops nor the GICP candidate, so a caller knows whether
+  // step 3 would try candidates).
   bool unconfirmed = false;
-  // With RefineSettings::judge, how the answer fits at the noise (icp/fit.hpp): the (thinned)
-  // source's pairs within the final stage's reach, one to one.
+  // With RefineSettings::judge, how the answer fits at the noise (icp/fit.hpp): the final stage's
+  // own pairs (within its reach, one to one).
   FitEvidence fit;
+  // false: a probe gave up before the stages at full resolution (RefineSettings::probe); `icp` is
+  // then its pose measured within the final reach (point-to-plane, no update), `fit` its fit there.
+  bool finished = true;
   // Target normals estimated so far when the target has none: only where pairs needed them
   // (normals.hpp, NormalCache), and of those, the neighbourhoods with no plane.
   std::size_t estimated_normals = 0;

@@ -1,4 +1,4 @@
-#include "align3d/coarse/voxel.hpp"
+#include "align3d/voxel.hpp"
 
 #include <algorithm>
 #include <cmath>
