@@ -1,0 +1,128 @@
+"""The real scans of ../shared/data/real/ as the benchmarks read them (bench/compare_real.py).
+
+The Stanford dragon (stanford-dragon/): 15 ASCII PLY range scans from a Cyberware 3030MS, the
+statuette turned by 24° between scans, metres, no sensor position; each file holds `x y z`
+vertices and a `range_grid` element (rows × cols cells, each listing 0 or 1 vertex index);
+truth.txt gives each scan's world-from-scan pose (world = T · scan), derived from the repository's
+own .conf, good to about 0.3 mm and a few hundredths of a degree.
+"""
+import os
+
+import numpy as np
+
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+REAL = os.path.normpath(os.path.join(REPO, "..", "shared", "data", "real"))
+DRAGON = os.path.join(REAL, "stanford-dragon")
+
+
+def dragon_path(angle, data=DRAGON):
+    return os.path.join(data, f"dragonStandRight_{angle}.ply")
+
+
+def dragon_truth(data=DRAGON):
+    """{angle: 4x4 world-from-scan pose} from truth.txt."""
+    poses = {}
+    with open(os.path.join(data, "truth.txt")) as f:
+        for line in f:
+            if line.startswith("#") or not line.strip():
+                continue
+            name, *numbers = line.split()
+            angle = int(name.split("_")[1].split(".")[0])
+            poses[angle] = np.array([float(x) for x in numbers]).reshape(4, 4)
+    return poses
+
+
+def relative_pose(poses, source, target):
+    """T with target ≈ T · source (scan `source` into scan `target`'s frame)."""
+    return np.linalg.inv(poses[target]) @ poses[source]
+
+
+def read_range_scan(path):
+    """(vertices (N, 3), grid (rows, cols) of vertex indices, -1 where nothing was seen)."""
+    with open(path, "rb") as f:
+        header = []
+        while True:
+            line = f.readline().decode("ascii").strip()
+            header.append(line)
+            if line == "end_header":
+                break
+        body = f.read().decode("ascii").split("\n")
+
+    def value(prefix, field):
+        return int(next(h for h in header if h.startswith(prefix)).split()[field])
+
+    vertices, cells = value("element vertex", 2), value("element range_grid", 2)
+    rows, cols = value("obj_info num_rows", 2), value("obj_info num_cols", 2)
+    points = np.array([[float(x) for x in body[i].split()[:3]] for i in range(vertices)])
+    grid = -np.ones(cells, dtype=np.int64)
+    for i in range(cells):
+        entry = body[vertices + i].split()
+        if entry and entry[0] != "0":
+            grid[i] = int(entry[1])
+    return points, grid.reshape(rows, cols)
+
+
+def range_grid_mesh(points, grid, max_edge):
+    """The scan's own triangulation: two triangles per grid cell whose four corners were seen, one
+    where three were, none with an edge longer than `max_edge` (the depth jumps at silhouettes)."""
+    a, b, c, d = grid[:-1, :-1], grid[:-1, 1:], grid[1:, :-1], grid[1:, 1:]
+    full = (a >= 0) & (b >= 0) & (c >= 0) & (d >= 0)
+    triangles = [np.stack([a[full], c[full], b[full]], 1), np.stack([b[full], c[full], d[full]], 1)]
+    for (x, y, z), missing in (((b, c, d), a), ((a, c, d), b), ((a, d, b), c), ((a, c, b), d)):
+        three = (x >= 0) & (y >= 0) & (z >= 0) & (missing < 0)
+        triangles.append(np.stack([x[three], y[three], z[three]], 1))
+    tri = np.concatenate(triangles)
+
+    def edge(i, j):
+        return np.linalg.norm(points[tri[:, i]] - points[tri[:, j]], axis=1)
+
+    short = (edge(0, 1) < max_edge) & (edge(1, 2) < max_edge) & (edge(0, 2) < max_edge)
+    return tri[short]
+
+
+def write_ply(path, points, triangles=None):
+    """Binary little-endian PLY: float32 vertices, and faces when given."""
+    points = np.asarray(points, dtype="<f4")
+    header = f"ply\nformat binary_little_endian 1.0\nelement vertex {len(points)}\n"
+    header += "property float x\nproperty float y\nproperty float z\n"
+    if triangles is not None:
+        header += f"element face {len(triangles)}\nproperty list uchar int vertex_indices\n"
+    header += "end_header\n"
+    with open(path, "wb") as f:
+        f.write(header.encode("ascii"))
+        f.write(points.tobytes())
+        if triangles is not None:
+            faces = np.zeros(len(triangles), dtype=[("n", "u1"), ("i", "<i4", (3,))])
+            faces["n"] = 3
+            faces["i"] = triangles
+            f.write(faces.tobytes())
+
+
+def transform(points, T):
+    return points @ T[:3, :3].T + T[:3, 3]
+
+
+def near_share(points, other, distance, samples=4000):
+    """The share of `points` (at most `samples` of them, evenly spaced) with a point of `other`
+    within `distance`: a hash of `other` in cells of that size, each sample tested against the 27
+    cells about it."""
+    points = points[:: max(1, len(points) // samples)]
+    cells = {}
+    for i, key in enumerate(map(tuple, np.floor(other / distance).astype(np.int64))):
+        cells.setdefault(key, []).append(i)
+    near = 0
+    for p, key in zip(points, np.floor(points / distance).astype(np.int64)):
+        found = False
+        for dx in (-1, 0, 1):
+            for dy in (-1, 0, 1):
+                for dz in (-1, 0, 1):
+                    idx = cells.get((key[0] + dx, key[1] + dy, key[2] + dz))
+                    if idx and np.min(np.sum((other[idx] - p) ** 2, axis=1)) <= distance**2:
+                        found = True
+                        break
+                if found:
+                    break
+            if found:
+                break
+        near += found
+    return near / len(points)
