@@ -395,10 +395,69 @@ double noise_of(const PointCloud& source, const RefineSettings& settings) {
   return surface_noise(source, tree, 20, 2000, settings.threads);
 }
 
-// The `auto` schedule (refine.hpp): coarse stages at a shrinking τ, basin hopping when their pose
-// is not confirmed, then the final stage with `last` (method, termination, threads, covariance, and
-// the kernel when one was asked for). `measure` evaluates a pose without moving it (an ICP run of
-// no update).
+// The source's side of the schedule's pyramid (refine.hpp): every 4^j-th point of the coarse source
+// along its Morton curve, as the target's levels (RefineTarget::level); built on first use, with
+// normals (of `from`'s points) for the costs that read them (GICP).
+class Pyramid {
+ public:
+  Pyramid(const PointCloud& coarse, RefineTarget& target)
+      : coarse_(coarse), target_(target), curve_(spatial_order(coarse.positions)) {}
+
+  const PointCloud& source(int j, const PointCloud& from) {
+    std::vector<PointCloud>& built = built_[from.has_normals()];
+    if (built.size() < static_cast<std::size_t>(j)) built.resize(static_cast<std::size_t>(j));
+    PointCloud& l = built[static_cast<std::size_t>(j - 1)];
+    if (l.empty()) {
+      std::vector<std::uint32_t> kept;
+      for (std::uint32_t k : every(curve_.size(), std::size_t{1} << (2 * j)))
+        kept.push_back(curve_[k]);
+      l = reordered(from, kept);
+    }
+    return l;
+  }
+
+  // The level a stage of reach τ runs at, 0 for the clouds as given: the coarsest whose reach
+  // spans kLevelReach resolutions with kMinLevelPoints points on both sides.
+  int level_of(double tau) {
+    for (int j = level_for(tau, target_.spacing()); j >= 1; --j)
+      if (target_.level(j).cloud.size() >= kMinLevelPoints &&
+          source(j, coarse_).size() >= kMinLevelPoints)
+        return j;
+    return 0;
+  }
+
+ private:
+  const PointCloud& coarse_;
+  RefineTarget& target_;
+  std::vector<std::uint32_t> curve_;
+  std::vector<PointCloud> built_[2];  // without and with normals
+};
+
+// Step 4's settings (refine.hpp): `last` at reach τ; onto a point cloud (`cloud`, point spacing s)
+// one to one beyond half a spacing and point-to-point onto tangent planes; weighted by
+// Geman-McClure at τ/2 unless the caller chose a kernel (its scale, or tuned to σ̂ = `sigma`).
+IcpSettings final_settings(const IcpSettings& last, const RefineSettings& settings, double tau,
+                           double sigma, bool cloud, double spacing) {
+  IcpSettings s = last;
+  s.rejection = RejectionRule::max_distance(tau);
+  if (cloud) {
+    s.reciprocity = kFinalReciprocity;
+    s.reciprocity_floor = kReciprocityFloorSpacings * spacing;
+    s.tangent_planes = true;
+  }
+  if (!settings.kernel) {
+    s.kernel = RobustKernel::kGemanMcClure;
+    s.kernel_scale = kKernelFraction * tau;
+  } else {
+    s.kernel_scale = kernel_scale_or_tuned(last.kernel, settings.kernel_scale, sigma);
+  }
+  return s;
+}
+
+// The `auto` schedule (refine.hpp): coarse stages at a shrinking τ, the final stage with `last`
+// (method, termination, threads, covariance, and the kernel when one was asked for), basin hopping
+// when its answer is not confirmed, and the final stage again from a candidate kept. `measure`
+// evaluates a pose without moving it (an ICP run of no update).
 template <class Run, class RunLevel, class Measure>
 void refine_schedule(const PointCloud& source, RefineTarget& target, const Eigen::Isometry3d& init,
                      const RefineSettings& settings, IcpSettings last, RefineResult& out, Run&& run,
@@ -423,37 +482,15 @@ void refine_schedule(const PointCloud& source, RefineTarget& target, const Eigen
   coarse.method = IcpMethod::kPointToPlane;
   coarse.termination = {kCoarseIterations, 1e-4, true, 1e-5, 1e-6};
   coarse.kernel = RobustKernel::kGemanMcClure;
-  // The source's levels: every 4^j-th point of the coarse source along its Morton curve, as the
-  // target's; with normals (of `from`'s points) for the costs that read them (GICP).
-  const std::vector<std::uint32_t> curve = spatial_order(coarse_source.positions);
-  std::vector<PointCloud> levels[2];
-  auto source_level = [&](int j, const PointCloud& from) -> const PointCloud& {
-    std::vector<PointCloud>& built = levels[from.has_normals()];
-    if (built.size() < static_cast<std::size_t>(j)) built.resize(static_cast<std::size_t>(j));
-    PointCloud& l = built[static_cast<std::size_t>(j - 1)];
-    if (l.empty()) {
-      std::vector<std::uint32_t> kept;
-      for (std::uint32_t k : every(curve.size(), std::size_t{1} << (2 * j)))
-        kept.push_back(curve[k]);
-      l = reordered(from, kept);
-    }
-    return l;
-  };
-  // The level a stage of reach τ runs at (RefineTarget::level), 0 for the clouds as given.
-  auto level_of = [&](double tau) {
-    for (int j = level_for(tau, target.spacing()); j >= 1; --j)
-      if (target.level(j).cloud.size() >= kMinLevelPoints &&
-          source_level(j, coarse_source).size() >= kMinLevelPoints)
-        return j;
-    return 0;
-  };
+  Pyramid pyramid(coarse_source, target);
+  auto level_of = [&](double tau) { return pyramid.level_of(tau); };
   // A coarse stage: at its level, else on `from`.
   double resolution = 0;  // of the last stage run at a level
   auto stage = [&](const PointCloud& from, const Eigen::Isometry3d& T, const IcpSettings& s) {
     const int j = level_of(s.rejection.distance);
     if (j == 0) return run(from, T, s);
     resolution = target.level(j).resolution;
-    return run_level(source_level(j, from), target.level(j), T, s);
+    return run_level(pyramid.source(j, from), target.level(j), T, s);
   };
   // A probe (RefineSettings::probe) gives up before the stages at full resolution when the
   // levels' pose fits weakly at the final reach: its residuals' RMS above kWeakFit times what a
@@ -484,19 +521,8 @@ void refine_schedule(const PointCloud& source, RefineTarget& target, const Eigen
     Eigen::Isometry3d T = e.T;
     double tau = reach_of(e);
     if (target.surface()) tau = noise_stages(coarse_source, *target.surface(), tau, coarse, T, run);
-    IcpSettings final_stage = last;
-    final_stage.rejection = RejectionRule::max_distance(tau);
-    if (!target.surface()) {
-      final_stage.reciprocity = kFinalReciprocity;
-      final_stage.reciprocity_floor = kReciprocityFloorSpacings * spacing;
-      final_stage.tangent_planes = true;
-    }
-    if (!settings.kernel) {
-      final_stage.kernel = RobustKernel::kGemanMcClure;
-      final_stage.kernel_scale = kKernelFraction * tau;
-    } else {
-      final_stage.kernel_scale = kernel_scale_or_tuned(last.kernel, settings.kernel_scale, e.sigma);
-    }
+    IcpSettings final_stage =
+        final_settings(last, settings, tau, e.sigma, !target.surface(), spacing);
     final_stage.judge = {std::hypot(source_noise, target.noise()), target.spacing()};
     out.icp = run(source, T, final_stage);
     out.fit = out.icp.fit;
