@@ -13,8 +13,10 @@
 namespace align3d {
 namespace {
 
-// The upper median (the middle value, or the larger of the two middle ones); reorders v.
+// The upper median (the middle value, or the larger of the two middle ones) of the values
+// measured, NaN standing for none; reorders v and drops its NaNs. 0 when none was measured.
 double upper_median(std::vector<double>& v) {
+  v.erase(std::remove_if(v.begin(), v.end(), [](double x) { return std::isnan(x); }), v.end());
   if (v.empty()) return 0.0;
   std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
   return v[v.size() / 2];
@@ -69,7 +71,6 @@ double point_spacing(const PointCloud& cloud, const KdTree& tree, std::size_t sa
         break;
       }
   });
-  d.erase(std::remove_if(d.begin(), d.end(), [](double x) { return std::isnan(x); }), d.end());
   return upper_median(d);
 }
 
@@ -83,8 +84,6 @@ double surface_noise(const PointCloud& cloud, const KdTree& tree, int k, std::si
     thread_local std::vector<Neighbor> nb;
     rms[s] = quadric_rms(cloud, tree, s * step, k, nb);
   });
-  rms.erase(std::remove_if(rms.begin(), rms.end(), [](double x) { return std::isnan(x); }),
-            rms.end());
   return upper_median(rms);
 }
 

@@ -75,4 +75,20 @@ void find_surface_correspondences(const std::vector<Eigen::Vector3d>& source,
   });
 }
 
+std::vector<double> normal_residuals(const std::vector<Eigen::Vector3d>& source,
+                                     const Eigen::Isometry3d& T, const Correspondences& c,
+                                     double threshold, const PointCloud& target,
+                                     const std::vector<Eigen::Vector3d>& normals) {
+  const bool surface = !c.point.empty();  // a mesh target (solver.cpp reads it so too)
+  std::vector<double> residuals;
+  residuals.reserve(source.size());
+  for (std::size_t i = 0; i < source.size(); ++i) {
+    if (!is_kept(c, i, threshold) || (!c.aside.empty() && c.aside[i])) continue;
+    const Eigen::Vector3d p = T * source[i];
+    residuals.push_back(surface ? c.normal[i].dot(p - c.point[i])
+                                : normals[c.target[i]].dot(p - target.positions[c.target[i]]));
+  }
+  return residuals;
+}
+
 }  // namespace align3d

@@ -53,22 +53,6 @@ bool measures_model_error(const PointCloud& source, const Target& target, const 
          target.cloud && source.has_normals();
 }
 
-// The fit at the noise (icp/fit.hpp) of the kept pairs of `in` that the update used: their
-// distances along the partner's normal (a mesh's: to the closest surface point).
-FitEvidence judge_pairs(const StepInput& in, bool surface, const FitScale& scale) {
-  const Correspondences& c = in.pairs;
-  std::vector<double> residuals;
-  residuals.reserve(in.source.size());
-  for (std::size_t i = 0; i < in.source.size(); ++i) {
-    if (!is_kept(c, i, in.threshold) || (!c.aside.empty() && c.aside[i])) continue;
-    const Eigen::Vector3d p = in.T * in.source[i];
-    residuals.push_back(surface
-                            ? c.normal[i].dot(p - c.point[i])
-                            : in.normals[c.target[i]].dot(p - in.target.positions[c.target[i]]));
-  }
-  return judge_fit(residuals, scale.noise, scale.spacing);
-}
-
 // The centre of the target's box: the update's coordinates are taken about it (conditioning).
 Eigen::Vector3d centre_of(const MeshIndex& surface) {
   Eigen::Vector3d lo = surface.mesh().vertices[0], hi = lo;
@@ -186,7 +170,9 @@ IcpResult run_icp(const PointCloud& source, const Target& target, const Eigen::I
   }
   if (s.judge.noise >= 0 && result.stop_reason != StopReason::kTooFewCorrespondences &&
       (target.surface || reads_target_normals(s)))
-    result.fit = judge_pairs(pairs(), target.surface != nullptr, s.judge);
+    result.fit = judge_fit(
+        normal_residuals(moving, result.T_target_source, c, threshold, target_cloud, normals),
+        s.judge.noise, s.judge.spacing);
   if (s.covariance) {
     result.covariance = pose_covariance(pairs(), {s.method, s.kernel, kernel_scale}, result.hessian,
                                         result.degenerate_directions, diagonal, s.threads);

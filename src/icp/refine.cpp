@@ -231,28 +231,20 @@ FitEvidence measure_fit(const PointCloud& source, RefineTarget& target, const Ei
   const double spacing = target.spacing();
   const double noise = std::hypot(source_noise, target.noise());
   Correspondences c;
-  std::vector<double> residuals;
+  const PointCloud& cloud = target.cloud();
   if (const MeshIndex* surface = target.surface()) {
     find_surface_correspondences(source.positions, *surface, T, reach, threads, c);
-    for (std::size_t i = 0; i < source.size(); ++i)
-      if (is_kept(c, i, reach))
-        residuals.push_back(c.normal[i].dot(T * source.positions[i] - c.point[i]));
-    return judge_fit(residuals, noise, spacing);
+    return judge_fit(normal_residuals(source.positions, T, c, reach, cloud, {}), noise, spacing);
   }
-  const PointCloud& cloud = target.cloud();
   find_correspondences(source.positions, cloud, target.tree(), T, reach, threads, c);
   set_aside_crowded(cloud.size(), reach, kFinalReciprocity, kReciprocityFloorSpacings * spacing,
                     threads, c);
-  auto judged = [&](std::size_t i) { return is_kept(c, i, reach) && !c.aside[i]; };
   std::vector<std::uint32_t> partners;
   for (std::size_t i = 0; i < source.size(); ++i)
-    if (judged(i)) partners.push_back(static_cast<std::uint32_t>(c.target[i]));
-  const std::vector<Eigen::Vector3d>& normals = target.normals(partners);
-  for (std::size_t i = 0; i < source.size(); ++i)
-    if (judged(i))
-      residuals.push_back(
-          normals[c.target[i]].dot(T * source.positions[i] - cloud.positions[c.target[i]]));
-  return judge_fit(residuals, noise, spacing);
+    if (is_kept(c, i, reach) && !c.aside[i])
+      partners.push_back(static_cast<std::uint32_t>(c.target[i]));
+  return judge_fit(normal_residuals(source.positions, T, c, reach, cloud, target.normals(partners)),
+                   noise, spacing);
 }
 
 namespace {
@@ -483,11 +475,10 @@ void refine_schedule(const PointCloud& source, RefineTarget& target, const Eigen
   coarse.termination = {kCoarseIterations, 1e-4, true, 1e-5, 1e-6};
   coarse.kernel = RobustKernel::kGemanMcClure;
   Pyramid pyramid(coarse_source, target);
-  auto level_of = [&](double tau) { return pyramid.level_of(tau); };
   // A coarse stage: at its level, else on `from`.
   double resolution = 0;  // of the last stage run at a level
   auto stage = [&](const PointCloud& from, const Eigen::Isometry3d& T, const IcpSettings& s) {
-    const int j = level_of(s.rejection.distance);
+    const int j = pyramid.level_of(s.rejection.distance);
     if (j == 0) return run(from, T, s);
     resolution = target.level(j).resolution;
     return run_level(pyramid.source(j, from), target.level(j), T, s);
@@ -498,9 +489,9 @@ void refine_schedule(const PointCloud& source, RefineTarget& target, const Eigen
   // the levels can give where the noise is finer. Measured on the dragon's neighbours: right
   // starts there at RMS 0.4-0.8 of that, wrong ones at 2.7-3.1 with a tenth of the pairs, whose
   // stages at full resolution would slide on to their iteration caps.
-  bool probed = !settings.probe || level_of(kStartFraction * diagonal) == 0;
+  bool probed = !settings.probe || pyramid.level_of(kStartFraction * diagonal) == 0;
   auto abandon = [&](const Eigen::Isometry3d& T, double tau) {
-    if (probed || level_of(tau) > 0) return false;
+    if (probed || pyramid.level_of(tau) > 0) return false;
     probed = true;
     const FitEvidence f = judge(T, floor);
     return f.pairs < min_pairs(IcpMethod::kPointToPlane) ||

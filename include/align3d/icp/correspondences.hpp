@@ -53,6 +53,15 @@ void find_correspondences(const std::vector<Eigen::Vector3d>& source, const Poin
 void set_aside_crowded(std::size_t targets, double threshold, double reciprocity, double floor,
                        int threads, Correspondences& c);
 
+// The signed distance of T·source[i] along its partner's normal, for each pair kept within
+// `threshold` and not set aside, in source order: onto a mesh's surface (c.point, c.normal;
+// `target` and `normals` unused) when c.point is filled, else onto the target point with `normals`
+// (indexed as target.positions). What a fit at the noise judges (icp/fit.hpp).
+std::vector<double> normal_residuals(const std::vector<Eigen::Vector3d>& source,
+                                     const Eigen::Isometry3d& T, const Correspondences& c,
+                                     double threshold, const PointCloud& target,
+                                     const std::vector<Eigen::Vector3d>& normals);
+
 // Pairs T·source[i] with its closest point on `surface` closer than `bound` (the same contract);
 // consecutive source points close in space make the search cheap (MeshIndex::closest_points).
 void find_surface_correspondences(const std::vector<Eigen::Vector3d>& source,
