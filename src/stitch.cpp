@@ -73,8 +73,8 @@ void check_settings(const StitchSettings& s, std::size_t scans) {
   if (!(s.voxel >= 0) || !std::isfinite(s.voxel)) bad("voxel must be 0 (automatic) or positive");
   if (!s.viewpoints.empty() && s.viewpoints.size() != scans)
     bad("viewpoints: one per scan, or none");
-  for (const Eigen::Vector3d& v : s.viewpoints)
-    if (!v.allFinite()) bad("viewpoints must be finite");
+  for (const std::optional<Eigen::Vector3d>& v : s.viewpoints)
+    if (v && !v->allFinite()) bad("viewpoints must be finite");
   if (s.threads < 0) bad("threads must not be negative");
 }
 
@@ -441,6 +441,15 @@ void add_warnings(StitchResult& r, const std::vector<StitchEdge>& edges,
 
 }  // namespace
 
+std::string_view to_string(SensorSource s) {
+  switch (s) {
+    case SensorSource::kGiven: return "given";
+    case SensorSource::kOrigin: return "origin";
+    case SensorSource::kEstimated: return "estimated";
+  }
+  return "given";
+}
+
 StitchResult stitch(const std::vector<PointCloud>& scans, const StitchSettings& settings) {
   const auto start = Clock::now();
   if (scans.size() < 2) throw DataError("scans", "stitching needs at least two scans");
@@ -475,6 +484,8 @@ StitchResult stitch(const std::vector<PointCloud>& scans, const StitchSettings& 
     r.scans[k].transformation = graph.poses[k];
     r.scans[k].connected = graph.connected[k];
     r.scans[k].points = scans[k].size();
+    r.scans[k].viewpoint = data[k].viewpoint;
+    r.scans[k].sensor = data[k].sensor;
   }
   for (const StitchEdge& e : r.edges)
     if (e.kept) ++r.scans[e.source].edges, ++r.scans[e.target].edges;

@@ -164,6 +164,8 @@ StitchResult made_up_result() {
                 {"pruned_edge", "edge 1-2 disagrees with the graph"},
                 {"single_edge_scan", "scan 1 is held by one edge only"}};
   r.scans[1].warnings = {"single_edge_scan"};
+  r.scans[1].viewpoint = {0.5, 0, 2};
+  r.scans[1].sensor = SensorSource::kEstimated;
   r.scans[2].warnings = {"unconnected_scan"};
   r.timings = {1, 2, 3, 4, 5, 15};
   return r;
@@ -173,7 +175,7 @@ const std::vector<report::InputInfo> kInputs = {{"a.ply", 100, 0}, {"b.pcd", 200
 
 TEST(StitchReport, HasEveryKeyInItsShape) {
   StitchSettings s;
-  s.viewpoints = {{0, 0, 0}, {1, 0, 0}, {0, 0, 5}};
+  s.viewpoints = {std::nullopt, Eigen::Vector3d(1, 0, 0), Eigen::Vector3d(0, 0, 5)};
   // Through text, as a reader sees it: NaN becomes null.
   const auto j = nlohmann::json::parse(
       report::stitch_report(made_up_result(), s, kInputs, "merged.ply", true).dump());
@@ -182,8 +184,10 @@ TEST(StitchReport, HasEveryKeyInItsShape) {
     EXPECT_TRUE(j.contains(key)) << key;
   ASSERT_EQ(j["poses"].size(), 3u);
   for (const auto& p : j["poses"]) {
-    for (const char* key : {"file", "transformation", "connected", "points", "edges", "residual"})
+    for (const char* key :
+         {"file", "transformation", "connected", "points", "edges", "sensor", "residual"})
       EXPECT_TRUE(p.contains(key)) << key;
+    EXPECT_EQ(p["sensor"]["position"].size(), 3u);
     ASSERT_EQ(p["transformation"].size(), 4u);
     for (const auto& row : p["transformation"]) EXPECT_EQ(row.size(), 4u);
     for (const char* key : {"pairs", "rms", "median", "p95"})
@@ -216,7 +220,10 @@ TEST(StitchReport, HasEveryKeyInItsShape) {
   for (const char* key : {"min_overlap", "prune_rotation_deg", "prune_translation",
                           "multiview_iterations", "voxel", "viewpoints", "threads"})
     EXPECT_TRUE(j["settings"].contains(key)) << key;
+  EXPECT_TRUE(j["settings"]["viewpoints"][0].is_null());  // not known
   EXPECT_EQ(j["settings"]["viewpoints"][2], nlohmann::json({0.0, 0.0, 5.0}));
+  EXPECT_EQ(j["poses"][1]["sensor"]["source"], "estimated");
+  EXPECT_EQ(j["poses"][1]["sensor"]["position"], nlohmann::json({0.5, 0.0, 2.0}));
   EXPECT_EQ(
       j["settings"]["icp"],
       nlohmann::json({{"method", "point-to-plane"}, {"kernel", "auto"}, {"kernel_scale", 0}}));
@@ -409,8 +416,41 @@ TEST_F(StitchScene, APcdsViewpointIsItsScansSensor) {
   const CliRun r = run({"stitch", (*dir_ / "v0.pcd").string(), (*dir_ / "v1.pcd").string(),
                         "--report", "-", "--threads", "2"});
   ASSERT_EQ(r.code, 0) << r.err;
-  EXPECT_EQ(nlohmann::json::parse(r.out)["settings"]["viewpoints"],
-            nlohmann::json({{0.0, 0.0, 0.0}, {5.0, 6.0, 7.0}}));
+  const auto j = nlohmann::json::parse(r.out);
+  // A VIEWPOINT at the origin is no evidence: the first scan's sensor is placed by the engine (its
+  // own origin: the generated view faces it).
+  EXPECT_EQ(j["settings"]["viewpoints"], nlohmann::json({nullptr, {5.0, 6.0, 7.0}}));
+  EXPECT_EQ(j["poses"][0]["sensor"]["source"], "origin");
+  EXPECT_EQ(j["poses"][1]["sensor"]["source"], "given");
+  EXPECT_EQ(j["poses"][1]["sensor"]["position"], nlohmann::json({5.0, 6.0, 7.0}));
+}
+
+TEST_F(StitchScene, SensorsGivenOnTheCommandLineAreTheScansSensors) {
+  const std::string a = scan(0), b = scan(1);
+  CliRun r = run({"stitch", a, b, "--viewpoint", "0,0,0", "--report", "-", "--threads", "2"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  nlohmann::json j = nlohmann::json::parse(r.out);
+  for (std::size_t k = 0; k < 2; ++k) EXPECT_EQ(j["poses"][k]["sensor"]["source"], "given");
+  // A file: one line a scan in input order, auto where not known.
+  const fs::path eyes = *dir_ / "eyes.txt";
+  write_text(eyes, "# sensors\n0 0 0\n\nauto\n");
+  r = run({"stitch", a, b, "--viewpoints", eyes.string(), "--report", "-", "--threads", "2"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["poses"][0]["sensor"]["source"], "given");
+  EXPECT_EQ(j["poses"][1]["sensor"]["source"], "origin");  // the generated views face theirs
+  // What cannot be used: exit 3 naming the file and the line, or exit 2 for the flag.
+  write_text(eyes, "0 0\nauto\n");
+  r = run({"stitch", a, b, "--viewpoints", eyes.string()});
+  EXPECT_EQ(r.code, code(ExitCode::kInput)) << r.err;
+  EXPECT_NE(r.err.find("eyes.txt: line 1: expected 3 finite numbers"), std::string::npos) << r.err;
+  write_text(eyes, "auto\n");
+  r = run({"stitch", a, b, "--viewpoints", eyes.string()});
+  EXPECT_EQ(r.code, code(ExitCode::kInput)) << r.err;
+  EXPECT_NE(r.err.find("1 viewpoints for 2 scans"), std::string::npos) << r.err;
+  r = run({"stitch", a, b, "--viewpoint", "1,nan,2"});
+  EXPECT_EQ(r.code, code(ExitCode::kUsage)) << r.err;
+  EXPECT_NE(r.err.find("--viewpoint"), std::string::npos) << r.err;
 }
 
 TEST_F(StitchScene, AScanThatOverlapsNoOtherIsExitCodeTenWithEveryOutput) {

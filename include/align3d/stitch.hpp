@@ -61,7 +61,9 @@
 #include <Eigen/Geometry>
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "align3d/icp/refine.hpp"
@@ -93,9 +95,11 @@ struct StitchSettings {
   // refines the edges only, the multi-view ICP running point-to-plane.
   CostSettings cost;
   double voxel = 0;  // merged cloud; 0: kMergeVoxelSpacings × the median spacing
-  // Where each scan's sensor was, in that scan's frame (normals are oriented towards it); empty:
-  // the origin of every scan's frame (a depth camera's or a scanner's own coordinates).
-  std::vector<Eigen::Vector3d> viewpoints;
+  // Where each scan's sensor was, in that scan's frame (normals are oriented towards it and free
+  // space is seen from it): one per scan, or empty. A scan with none (most PLY, XYZ and OBJ
+  // exports) gets its frame's origin when the scan looks seen from there, else a position
+  // estimated from the scan itself (StitchScan::sensor says which).
+  std::vector<std::optional<Eigen::Vector3d>> viewpoints;
   int threads = 0;  // 0: all cores; the result does not depend on it
   ProgressCallback progress;
 };
@@ -122,8 +126,16 @@ struct StitchEdge {
   std::vector<Warning> warnings;  // of its registration
 };
 
+// How a scan's sensor position was known: given (by its file, io::sensor_position, or by the
+// caller), the frame's origin (none given; the scan looks seen from there), or estimated from
+// the scan (none given, and the origin lies beside or inside the object).
+enum class SensorSource { kGiven, kOrigin, kEstimated };
+std::string_view to_string(SensorSource s);
+
 struct StitchScan {
   Eigen::Isometry3d transformation = Eigen::Isometry3d::Identity();  // scan_0 ≈ T·scan_k
+  Eigen::Vector3d viewpoint = Eigen::Vector3d::Zero();  // its sensor, in its own frame
+  SensorSource sensor = SensorSource::kGiven;
   bool connected = false;  // reached from the first scan through kept edges
   std::size_t points = 0;
   std::size_t edges = 0;  // kept edges at this scan

@@ -126,9 +126,10 @@ def read_point_cloud(path: PathLike) -> PointCloud:
     return _read(path, stacklevel=3)[0]
 
 
-def _read(path: PathLike, stacklevel: int) -> "tuple[PointCloud, np.ndarray]":
-    """The cloud of a file and its sensor's position (a PCD's VIEWPOINT, else the origin); the
-    warning about dropped points is issued ``stacklevel`` frames up."""
+def _read(path: PathLike, stacklevel: int) -> "tuple[PointCloud, Optional[np.ndarray]]":
+    """The cloud of a file and its sensor's position where the file gives one (a PCD's VIEWPOINT
+    away from the origin, the origin of an organized PCD), else None; the warning about dropped
+    points is issued ``stacklevel`` frames up."""
     cloud, dropped, viewpoint = _core.read_point_cloud(os.fspath(path))
     if dropped:
         warnings.warn(
@@ -137,7 +138,8 @@ def _read(path: PathLike, stacklevel: int) -> "tuple[PointCloud, np.ndarray]":
             ),
             stacklevel=stacklevel,
         )
-    return PointCloud._wrap(cloud), np.asarray(viewpoint, dtype=np.float64)
+    eye = None if viewpoint is None else np.asarray(viewpoint, dtype=np.float64)
+    return PointCloud._wrap(cloud), eye
 
 
 def write_point_cloud(path: PathLike, cloud: Any, *, encoding: Optional[str] = None) -> None:

@@ -116,7 +116,8 @@ def stitch(scans: Sequence[Any], *, min_overlap: float = _DEFAULTS["min_overlap"
            prune_rotation: float = _DEFAULTS["prune_rotation"],
            prune_translation: float = _DEFAULTS["prune_translation"],
            multiview_iterations: int = _DEFAULTS["multiview_iterations"],
-           viewpoints: Optional[Any] = None, threads: int = 0,
+           viewpoints: Optional[Any] = None, viewpoint: Optional[Any] = None,
+           threads: int = 0,
            report: Optional[PathLike] = None, output: Optional[PathLike] = None,
            figure: Optional[PathLike] = None, html: Optional[PathLike] = None,
            scan_index: bool = True, method: str = _DEFAULTS["method"],
@@ -129,8 +130,13 @@ def stitch(scans: Sequence[Any], *, min_overlap: float = _DEFAULTS["min_overlap"
 
     ``scans``: a list of at least two scans, each an (N, 3) array, a :class:`PointCloud` or a file
     name (mixed as you like); the order carries no meaning but the first gives the frame.
-    ``viewpoints``: where each scan's sensor was, in its own frame, (K, 3); None: a PCD file's
-    VIEWPOINT, else the origin (a depth camera's own coordinates). ``min_overlap``, ``voxel``
+    ``viewpoints``: where each scan's sensor was, in its own frame, (K, 3), a row of NaN where
+    not known; None: where the file says (a PCD's VIEWPOINT away from the origin, the origin of
+    an organized PCD), else not known. A scan whose
+    sensor is not known gets its frame's origin when it faces it (depth cameras and scanners
+    write their own coordinates), else a position estimated from the scan; the report's
+    ``poses[k]["sensor"]`` says which. ``viewpoint``: one position (3,) for every scan (the
+    ``--viewpoint`` flag); not with ``viewpoints``. ``min_overlap``, ``voxel``
     (0: from the point spacing), ``prune_rotation`` (degrees), ``prune_translation`` (share of the
     object's diameter), ``multiview_iterations``, ``threads``: as the flags (stitching draws no
     random numbers: it takes no seed).
@@ -154,8 +160,16 @@ def stitch(scans: Sequence[Any], *, min_overlap: float = _DEFAULTS["min_overlap"
         error = DataError(f"scans: {len(loaded)} given; stitching needs at least two")
         error.subject, error.problem = "scans", f"{len(loaded)} given; stitching needs at least two"
         raise error
-    if viewpoints is None:
-        eyes = np.array([np.zeros(3) if v is None else v for _, _, v in loaded], dtype=np.float64)
+    if viewpoint is not None:
+        if viewpoints is not None:
+            raise ValueError("viewpoint and viewpoints: give one or the other")
+        eye = np.asarray(viewpoint, dtype=np.float64)
+        if eye.shape != (3,) or not np.isfinite(eye).all():
+            raise ValueError(f"viewpoint: expected 3 finite numbers, got shape {eye.shape}")
+        eyes = np.repeat(eye[None, :], len(loaded), axis=0)
+    elif viewpoints is None:
+        unknown = np.full(3, np.nan)
+        eyes = np.array([unknown if v is None else v for _, _, v in loaded], dtype=np.float64)
     else:
         eyes = rows("viewpoints", viewpoints, len(loaded))
     text, merged, merged_scan = _core.stitch(

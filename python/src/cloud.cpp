@@ -147,9 +147,10 @@ void bind_cloud(py::module_& m) {
           py::gil_scoped_release release;
           cloud = io::read_point_cloud(path, &info);
         }
-        // The sensor's position: a PCD's VIEWPOINT, the origin for other formats.
+        // The sensor's position where the file gives one (io::sensor_position), else None.
+        const std::optional<Eigen::Vector3d> eye = io::sensor_position(info);
         return py::make_tuple(std::move(cloud), info.dropped_non_finite,
-                              Eigen::Vector3d(info.viewpoint.position));
+                              eye ? py::cast(*eye) : py::none());
       },
       py::arg("path"));
   m.def(

@@ -7,6 +7,7 @@
 #include <pybind11/stl.h>
 
 #include <cstring>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -22,7 +23,7 @@ namespace {
 struct StitchArgs {
   double min_overlap, voxel, prune_rotation, prune_translation;
   int multiview_iterations;
-  std::vector<Eigen::Vector3d> viewpoints;
+  std::vector<std::optional<Eigen::Vector3d>> viewpoints;
   int threads;
   std::vector<std::string> paths;  // per scan, "" in memory
   std::string output, figure, html;
@@ -40,6 +41,14 @@ std::vector<Eigen::Vector3d> points_of(const Rows& a, const char* what) {
     throw py::value_error(std::string(what) + ": expected an array of shape (K, 3)");
   std::vector<Eigen::Vector3d> out(static_cast<std::size_t>(a.shape(0)));
   if (!out.empty()) std::memcpy(out.front().data(), a.data(), out.size() * sizeof(Eigen::Vector3d));
+  return out;
+}
+
+// (K, 3) sensor positions; a row of NaN: not known (stitch.hpp places that scan's sensor).
+std::vector<std::optional<Eigen::Vector3d>> viewpoints_of(const Rows& a) {
+  std::vector<std::optional<Eigen::Vector3d>> out;
+  for (const Eigen::Vector3d& p : points_of(a, "viewpoints"))
+    out.push_back(p.array().isNaN().all() ? std::nullopt : std::optional<Eigen::Vector3d>(p));
   return out;
 }
 
@@ -92,7 +101,7 @@ void bind_stitch(py::module_& m) {
         return stitch_scans(
             scans,
             StitchArgs{min_overlap, voxel, prune_rotation, prune_translation, multiview_iterations,
-                       points_of(viewpoints, "viewpoints"), threads, paths, output, figure, html,
+                       viewpoints_of(viewpoints), threads, paths, output, figure, html,
                        scan_index, method, kernel, kernel_scale});
       },
       py::arg("scans"), py::kw_only(), py::arg("min_overlap"), py::arg("voxel"),

@@ -176,4 +176,15 @@ def test_mixed_inputs_and_no_scan_index(scene, tmp_path):
     assert [p["file"] for p in report["poses"]] == ["", "", str(files[2])]
     assert report["merged"]["scan_index"] is False
     assert b"scan" not in (tmp_path / "plain.ply").read_bytes()[:400]
-    assert report["settings"]["viewpoints"] == [[0.0, 0.0, 0.0]] * 3
+    # No sensor known (arrays, PLY files): each placed by the engine, at the origin the generated
+    # views were seen from.
+    assert report["settings"]["viewpoints"] == [None] * 3
+    assert [p["sensor"]["source"] for p in report["poses"]] == ["origin"] * 3
+    given = stitched(files[:2], threads=2, viewpoints=[[0, 0, 0], [np.nan] * 3]).to_dict()
+    assert [p["sensor"]["source"] for p in given["poses"]] == ["given", "origin"]
+    one = stitched(files[:2], threads=2, viewpoint=[0, 0, 0]).to_dict()
+    assert [p["sensor"]["source"] for p in one["poses"]] == ["given", "given"]
+    with pytest.raises(ValueError, match="viewpoint"):
+        align3d.stitch(files[:2], viewpoint=[0, 0])
+    with pytest.raises(ValueError, match="one or the other"):
+        align3d.stitch(files[:2], viewpoint=[0, 0, 0], viewpoints=np.zeros((2, 3)))

@@ -1,9 +1,12 @@
 // align3d stitch SCAN...: stitch() (stitch.hpp) from the command line (README, "Stitch scans"; the
 // report's keys: docs/report.md, "stitch").
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <iomanip>
+#include <iterator>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -14,6 +17,7 @@
 #include "align3d/report/stitch_files.hpp"
 #include "align3d/stitch.hpp"
 #include "common.hpp"
+#include "detail/number.hpp"
 
 namespace align3d::cli {
 namespace {
@@ -25,7 +29,8 @@ constexpr std::size_t kMaxListLine = 4096;
 
 struct StitchOptions {
   std::vector<std::string> scans;
-  std::string list, report, output, figure, html;
+  std::string list, report, output, figure, html, viewpoints;
+  std::optional<Eigen::Vector3d> viewpoint;
   bool no_scan_index = false, strict = false, quiet = false;
   StitchSettings settings;
   RefineOptions refine;
@@ -37,42 +42,87 @@ std::string trimmed(const std::string& line) {
   return line.substr(first, line.find_last_not_of(" \t\r") + 1 - first);
 }
 
-// --list FILE: one scan a line, a relative path relative to FILE's folder; blank lines and lines
-// starting with '#' skipped. A list that is not text (a NUL byte, a line longer than a path can be,
-// more than 16 MiB) is an input error naming it and the line.
-std::vector<std::string> read_list(const std::string& list) {
-  if (list.empty()) return {};
+// The lines of a small text file given to the command (--list, --viewpoints), trimmed, with their
+// numbers; blank lines and lines starting with '#' skipped. A file that is not text (a NUL byte, a
+// line longer than a path can be, more than 16 MiB) is an input error naming it and the line.
+struct TextLine {
+  std::size_t number = 0;
+  std::string text;
+};
+
+std::vector<TextLine> read_lines(const std::string& file, const std::string& what) {
   std::error_code ec;
-  if (fs::is_directory(list, ec)) throw IoError(list, "a folder, not a list of scans");
-  std::ifstream in(list, std::ios::binary);
-  if (!in) throw IoError(list, "cannot open the list of scans");
-  const std::uintmax_t size = fs::file_size(list, ec);
-  if (!ec && size > kMaxListBytes)
-    throw IoError(list, "larger than 16 MiB: not a list of scans (one file a line)");
-  const fs::path folder = fs::path(list).parent_path();
-  std::vector<std::string> files;
+  if (fs::is_directory(file, ec)) throw IoError(file, "a folder, not " + what);
+  std::ifstream in(file, std::ios::binary);
+  if (!in) throw IoError(file, "cannot open " + what);
+  const std::uintmax_t size = fs::file_size(file, ec);
+  if (!ec && size > kMaxListBytes) throw IoError(file, "larger than 16 MiB: not " + what);
+  std::vector<TextLine> lines;
   std::string line;
   for (std::size_t n = 1; std::getline(in, line); ++n) {
     const std::string where = "line " + std::to_string(n) + ": ";
     if (line.find('\0') != std::string::npos)
-      throw IoError(list, where + "a NUL byte: not a list of scans (one file a line)");
+      throw IoError(file, where + "a NUL byte: not " + what);
     if (line.size() > kMaxListLine)
-      throw IoError(list, where + "longer than " + std::to_string(kMaxListLine) + " bytes");
-    const std::string entry = trimmed(line);
-    if (entry.empty() || entry[0] == '#') continue;
-    const fs::path path(entry);
-    files.push_back(path.is_relative() ? (folder / path).string() : entry);
+      throw IoError(file, where + "longer than " + std::to_string(kMaxListLine) + " bytes");
+    std::string entry = trimmed(line);
+    if (!entry.empty() && entry[0] != '#') lines.push_back({n, std::move(entry)});
   }
-  if (in.bad()) throw IoError(list, "cannot read the list of scans");
+  if (in.bad()) throw IoError(file, "cannot read " + what);
+  return lines;
+}
+
+// --list FILE: one scan a line, a relative path relative to FILE's folder.
+std::vector<std::string> read_list(const std::string& list) {
+  if (list.empty()) return {};
+  const fs::path folder = fs::path(list).parent_path();
+  std::vector<std::string> files;
+  for (const TextLine& line : read_lines(list, "a list of scans (one file a line)")) {
+    const fs::path path(line.text);
+    files.push_back(path.is_relative() ? (folder / path).string() : line.text);
+  }
   return files;
 }
 
-// The scans with each one's sensor position: a PCD's VIEWPOINT, else its frame's origin (what the
-// reader reports for other formats).
+// Three finite numbers separated by spaces, tabs or commas; nullopt otherwise.
+std::optional<Eigen::Vector3d> parse_point(const std::string& text) {
+  std::string spaced = text;
+  std::replace(spaced.begin(), spaced.end(), ',', ' ');
+  std::istringstream words(spaced);
+  std::vector<std::string> w{std::istream_iterator<std::string>(words), {}};
+  if (w.size() != 3) return std::nullopt;
+  Eigen::Vector3d p;
+  for (int i = 0; i < 3; ++i) {
+    const std::optional<double> v = detail::parse_finite(w[static_cast<std::size_t>(i)]);
+    if (!v) return std::nullopt;
+    p[i] = *v;
+  }
+  return p;
+}
+
+// --viewpoints FILE: one line per scan in input order, "X Y Z" (its sensor in its own frame) or
+// "auto" (not known: the file's, else the origin or an estimate).
+std::vector<std::optional<Eigen::Vector3d>> read_viewpoints(const std::string& file,
+                                                            std::size_t scans) {
+  std::vector<std::optional<Eigen::Vector3d>> out;
+  for (const TextLine& line : read_lines(file, "a list of viewpoints (X Y Z or auto a line)")) {
+    std::optional<Eigen::Vector3d> p = parse_point(line.text);
+    if (!p && line.text != "auto")
+      throw IoError(file, "line " + std::to_string(line.number) +
+                              ": expected 3 finite numbers (X Y Z) or 'auto'");
+    out.push_back(p);
+  }
+  if (out.size() != scans)
+    throw IoError(file, std::to_string(out.size()) + " viewpoints for " + std::to_string(scans) +
+                            " scans (one line per scan, in input order)");
+  return out;
+}
+
+// The scans with each one's sensor position where its file gives one (io::sensor_position).
 struct Scans {
   std::vector<PointCloud> clouds;
   std::vector<report::InputInfo> inputs;
-  std::vector<Eigen::Vector3d> viewpoints;
+  std::vector<std::optional<Eigen::Vector3d>> viewpoints;
 };
 
 Scans load_scans(const std::vector<std::string>& files, Streams io, ProgressLine& progress) {
@@ -83,7 +133,7 @@ Scans load_scans(const std::vector<std::string>& files, Streams io, ProgressLine
     io::ReadInfo info;
     s.clouds.push_back(load_cloud(files[k], io.err, &info));
     s.inputs.push_back({files[k], s.clouds.back().size(), 0});
-    s.viewpoints.push_back(info.viewpoint.position);
+    s.viewpoints.push_back(io::sensor_position(info));
   }
   return s;
 }
@@ -122,6 +172,13 @@ int run_stitch(StitchOptions& o, Streams io) {
   StitchSettings& s = o.settings;
   apply_refine_options(o.refine, s.cost);
   s.viewpoints = scans.viewpoints;
+  if (!o.viewpoints.empty()) {
+    const auto listed = read_viewpoints(o.viewpoints, files.size());
+    for (std::size_t k = 0; k < listed.size(); ++k)
+      if (listed[k]) s.viewpoints[k] = listed[k];
+  }
+  if (o.viewpoint)
+    for (auto& v : s.viewpoints) v = o.viewpoint;
   s.progress = progress.callback();
   StitchResult r;
   try {
@@ -161,10 +218,14 @@ constexpr const char* kStitchHelp =
     "better is flagged, ambiguous_scans); the chosen pairs are refined by ICP, a pose graph over\n"
     "them is optimised with a robust loss (edges that disagree with it are pruned), a multi-view\n"
     "ICP spreads the residual over every loop, and the scans are merged into one cloud, one point\n"
-    "per voxel, with normals towards each scan's sensor (a PCD's VIEWPOINT, else its origin) and\n"
-    "the scan each point came from. Last, every two stitched scans are checked against each\n"
-    "other's free space: a warning (inconsistent_scans) says when some pose must be wrong. Each\n"
-    "scan's warnings are also in its pose's entry of the report.\n"
+    "per voxel, with normals towards each scan's sensor and the scan each point came from.\n"
+    "Sensors: --viewpoint, --viewpoints, else a PCD's VIEWPOINT (away from the origin), else the\n"
+    "scan's origin when the scan faces it (depth cameras and scanners write their own\n"
+    "coordinates), else estimated from the scan (a range scan is one side of its object, seen\n"
+    "along the axis its normals face most); the report says which (poses[k].sensor).\n"
+    "Last, every two stitched scans are checked against each other's free space: a warning\n"
+    "(inconsistent_scans) says when some pose must be wrong. Each scan's warnings are also in\n"
+    "its pose's entry of the report.\n"
     "Each pose maps its scan into the first scan's frame (scan_0 ≈ T·scan_k); an edge's maps its\n"
     "source into its target's frame. Prints each scan's pose, connection and residual.\n"
     "Exit codes: 0 ok, 2 usage (fewer than two scans), 3 a scan or the list cannot be read, 4 a\n"
@@ -216,6 +277,20 @@ Command add_stitch(CLI::App& app, Streams io) {
                   "Write the merged cloud from above and from the front, coloured by scan (PNG)");
   sub->add_option("--html", o->html,
                   "Write an offline HTML page: the figure, the poses, the edges, the warnings");
+  sub->add_option_function<std::string>(
+         "--viewpoint",
+         [o](const std::string& text) {
+           o->viewpoint = parse_point(text);
+           if (!o->viewpoint)
+             throw CLI::ValidationError("--viewpoint", "expected X,Y,Z: 3 finite numbers");
+         },
+         "Every scan's sensor position in its own frame, X,Y,Z (data units): for scans in their "
+         "scanner's coordinates whose files carry none")
+      ->type_name("X,Y,Z");
+  sub->add_option("--viewpoints", o->viewpoints,
+                  "A file of sensor positions, one line per scan in input order: X Y Z in that "
+                  "scan's frame, or auto (the file's, else the origin or an estimate)")
+      ->excludes("--viewpoint");
   add_refine_options(sub, o->refine,
                      {"each chosen pair's refinement and of the multi-view ICP (which runs "
                       "point-to-plane for point-to-point)",

@@ -114,6 +114,12 @@ std::optional<CloudFormat> cloud_format(const std::filesystem::path& path) {
   return std::nullopt;
 }
 
+std::optional<Eigen::Vector3d> sensor_position(const ReadInfo& info) {
+  if (!info.viewpoint.position.isZero(0)) return info.viewpoint.position;
+  if (info.height > 1) return Eigen::Vector3d::Zero();
+  return std::nullopt;
+}
+
 PointCloud read_point_cloud(const std::filesystem::path& path, ReadInfo* info) {
   const std::optional<CloudFormat> format = cloud_format(path);
   if (!format) detail::fail(path, unknown_format_problem(lower_extension(path)));

@@ -62,6 +62,7 @@ nlohmann::json stitch_pose_json(const StitchScan& s, const InputInfo& in) {
           {"connected", s.connected},
           {"points", s.points},
           {"edges", s.edges},
+          {"sensor", {{"position", to_json(s.viewpoint)}, {"source", to_string(s.sensor)}}},
           {"residual", {{"pairs", s.pairs}, {"rms", s.rms}, {"median", s.median}, {"p95", s.p95}}},
           {"warnings", s.warnings}};
 }
@@ -94,7 +95,8 @@ nlohmann::json cost_json(const CostSettings& c) {
 
 nlohmann::json stitch_settings_json(const StitchSettings& s) {
   nlohmann::json viewpoints = nlohmann::json::array();
-  for (const Eigen::Vector3d& v : s.viewpoints) viewpoints.push_back(to_json(v));
+  for (const std::optional<Eigen::Vector3d>& v : s.viewpoints)
+    viewpoints.push_back(v ? to_json(*v) : nlohmann::json());
   return {{"min_overlap", s.min_overlap},
           {"prune_rotation_deg", s.prune_rotation_deg},
           {"prune_translation", s.prune_translation},

@@ -14,22 +14,44 @@
 #include "align3d/cloud_stats.hpp"
 #include "align3d/kdtree.hpp"
 #include "align3d/point_cloud.hpp"
+#include "align3d/stitch.hpp"
 
 namespace align3d::detail {
 
 // A scan: its points with normals towards its sensor, its tree and scale, and where its sensor
-// was (in its own frame).
+// was (in its own frame) and how that is known.
 struct ScanData {
   PointCloud cloud;
   std::unique_ptr<KdTree> tree;
   CloudScale scale;
   Eigen::Vector3d viewpoint = Eigen::Vector3d::Zero();
+  SensorSource sensor = SensorSource::kGiven;
 };
 
-// Checks each scan (DataError "scan k" when one cannot be registered), estimates its normals
-// towards its viewpoint (the origin when `viewpoints` is empty) and measures its scale.
+// Checks each scan (DataError "scan k" when one cannot be registered), places its sensor (a
+// viewpoint given, else sensor_position's choice), estimates its normals towards it and measures
+// its scale. `viewpoints`: one per scan, or empty (none known).
 std::vector<ScanData> prepare_scans(const std::vector<PointCloud>& scans,
-                                    const std::vector<Eigen::Vector3d>& viewpoints, int threads);
+                                    const std::vector<std::optional<Eigen::Vector3d>>& viewpoints,
+                                    int threads);
+
+// The median |cos| of the angle between a scan's normals (either sign) and its lines of sight
+// from `eye`, over at most ~2000 of its points: near 1 for the sensor that saw it (a scanner sees
+// most surface at a steep angle), low for a point beside or inside the object.
+double facing_from(const PointCloud& cloud, const Eigen::Vector3d& eye);
+
+// Where the sensor of a scan whose file gave none was, and how that was decided: the frame's
+// origin when the scan looks seen from there (facing_from at least 0.5 and at least 0.8 × that of
+// the estimate: depth cameras and scanners write their own coordinates), else estimated: a range
+// scan is one side of its object, seen along the axis its normals face most (the principal axis
+// of Σ n·nᵀ) from the side its surface bulges to (objects are convex on the whole: normals turned
+// that way point away from the scan's centroid on average), two extents from the centroid. Needs
+// the normals (either sign) and `extent`.
+struct SensorGuess {
+  Eigen::Vector3d eye = Eigen::Vector3d::Zero();
+  SensorSource source = SensorSource::kOrigin;
+};
+SensorGuess sensor_position(const PointCloud& cloud, double extent);
 
 // The object's size: the largest robust extent of a scan (cloud_stats.hpp).
 double largest_extent(const std::vector<ScanData>& scans);

@@ -67,6 +67,12 @@ struct ReadInfo {
 
 PointCloud read_point_cloud(const std::filesystem::path& path, ReadInfo* info = nullptr);
 
+// Where a file says its sensor was, in the cloud's frame: a PCD's VIEWPOINT away from the origin,
+// or the origin of an organized cloud (a depth camera's image, in that camera's frame); nothing
+// otherwise (most PLY, XYZ and OBJ exports; a VIEWPOINT at the origin is what writers put when
+// they know none).
+std::optional<Eigen::Vector3d> sensor_position(const ReadInfo& info);
+
 enum class CloudFormat { kPly, kPcd, kXyz };
 // The format that `path`'s extension names (.ply; .pcd; .xyz, .txt, .csv; in any case), or nullopt.
 std::optional<CloudFormat> cloud_format(const std::filesystem::path& path);
