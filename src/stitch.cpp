@@ -443,9 +443,12 @@ void add_warnings(StitchResult& r, const std::vector<StitchEdge>& edges,
 
 std::string_view to_string(SensorSource s) {
   switch (s) {
-    case SensorSource::kGiven: return "given";
-    case SensorSource::kOrigin: return "origin";
-    case SensorSource::kEstimated: return "estimated";
+    case SensorSource::kGiven:
+      return "given";
+    case SensorSource::kOrigin:
+      return "origin";
+    case SensorSource::kEstimated:
+      return "estimated";
   }
   return "given";
 }

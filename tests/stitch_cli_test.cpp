@@ -418,7 +418,7 @@ TEST_F(StitchScene, APcdsViewpointIsItsScansSensor) {
   ASSERT_EQ(r.code, 0) << r.err;
   const auto j = nlohmann::json::parse(r.out);
   // A VIEWPOINT at the origin is no evidence: the first scan's sensor is placed by the engine (its
-  // own origin: the generated view faces it).
+  // own origin: the generated view was seen from there).
   EXPECT_EQ(j["settings"]["viewpoints"], nlohmann::json({nullptr, {5.0, 6.0, 7.0}}));
   EXPECT_EQ(j["poses"][0]["sensor"]["source"], "origin");
   EXPECT_EQ(j["poses"][1]["sensor"]["source"], "given");
@@ -438,7 +438,7 @@ TEST_F(StitchScene, SensorsGivenOnTheCommandLineAreTheScansSensors) {
   ASSERT_EQ(r.code, 0) << r.err;
   j = nlohmann::json::parse(r.out);
   EXPECT_EQ(j["poses"][0]["sensor"]["source"], "given");
-  EXPECT_EQ(j["poses"][1]["sensor"]["source"], "origin");  // the generated views face theirs
+  EXPECT_EQ(j["poses"][1]["sensor"]["source"], "origin");  // generated views: seen from there
   // What cannot be used: exit 3 naming the file and the line, or exit 2 for the flag.
   write_text(eyes, "0 0\nauto\n");
   r = run({"stitch", a, b, "--viewpoints", eyes.string()});

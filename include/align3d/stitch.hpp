@@ -97,8 +97,8 @@ struct StitchSettings {
   double voxel = 0;  // merged cloud; 0: kMergeVoxelSpacings × the median spacing
   // Where each scan's sensor was, in that scan's frame (normals are oriented towards it and free
   // space is seen from it): one per scan, or empty. A scan with none (most PLY, XYZ and OBJ
-  // exports) gets its frame's origin when the scan looks seen from there, else a position
-  // estimated from the scan itself (StitchScan::sensor says which).
+  // exports) gets its frame's origin when the scan could have been seen from there, else a
+  // position estimated from the scan itself (StitchScan::sensor says which).
   std::vector<std::optional<Eigen::Vector3d>> viewpoints;
   int threads = 0;  // 0: all cores; the result does not depend on it
   ProgressCallback progress;
@@ -127,14 +127,14 @@ struct StitchEdge {
 };
 
 // How a scan's sensor position was known: given (by its file, io::sensor_position, or by the
-// caller), the frame's origin (none given; the scan looks seen from there), or estimated from
-// the scan (none given, and the origin lies beside or inside the object).
+// caller), the frame's origin (none given; the scan could have been seen from there), or
+// estimated from the scan (none given, and the origin lies under or inside the object).
 enum class SensorSource { kGiven, kOrigin, kEstimated };
 std::string_view to_string(SensorSource s);
 
 struct StitchScan {
   Eigen::Isometry3d transformation = Eigen::Isometry3d::Identity();  // scan_0 ≈ T·scan_k
-  Eigen::Vector3d viewpoint = Eigen::Vector3d::Zero();  // its sensor, in its own frame
+  Eigen::Vector3d viewpoint = Eigen::Vector3d::Zero();               // its sensor, in its own frame
   SensorSource sensor = SensorSource::kGiven;
   bool connected = false;  // reached from the first scan through kept edges
   std::size_t points = 0;

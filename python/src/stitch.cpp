@@ -99,10 +99,9 @@ void bind_stitch(py::module_& m) {
          bool scan_index, const std::string& method, const std::string& kernel,
          double kernel_scale) {
         return stitch_scans(
-            scans,
-            StitchArgs{min_overlap, voxel, prune_rotation, prune_translation, multiview_iterations,
-                       viewpoints_of(viewpoints), threads, paths, output, figure, html,
-                       scan_index, method, kernel, kernel_scale});
+            scans, StitchArgs{min_overlap, voxel, prune_rotation, prune_translation,
+                              multiview_iterations, viewpoints_of(viewpoints), threads, paths,
+                              output, figure, html, scan_index, method, kernel, kernel_scale});
       },
       py::arg("scans"), py::kw_only(), py::arg("min_overlap"), py::arg("voxel"),
       py::arg("prune_rotation"), py::arg("prune_translation"), py::arg("multiview_iterations"),

@@ -28,30 +28,25 @@ struct ScanData {
   SensorSource sensor = SensorSource::kGiven;
 };
 
-// Checks each scan (DataError "scan k" when one cannot be registered), places its sensor (a
-// viewpoint given, else sensor_position's choice), estimates its normals towards it and measures
-// its scale. `viewpoints`: one per scan, or empty (none known).
+// Checks each scan (DataError "scan k" when one cannot be registered), places its sensor (the
+// viewpoint given; else the frame's origin unless hidden_share says the scan was not seen from
+// there; else estimated_sensor), estimates its normals towards it and measures its scale.
+// `viewpoints`: one per scan, or empty (none known).
 std::vector<ScanData> prepare_scans(const std::vector<PointCloud>& scans,
                                     const std::vector<std::optional<Eigen::Vector3d>>& viewpoints,
                                     int threads);
 
-// The median |cos| of the angle between a scan's normals (either sign) and its lines of sight
-// from `eye`, over at most ~2000 of its points: near 1 for the sensor that saw it (a scanner sees
-// most surface at a steep angle), low for a point beside or inside the object.
-double facing_from(const PointCloud& cloud, const Eigen::Vector3d& eye);
+// The share of a scan's points its sensor (ScanData::viewpoint) could not have seen: behind it, or
+// more than a few spacings behind another of the scan's points in the same direction (a bin of
+// depth_map). Near 0 for the sensor that made the scan; large for a point under or inside the
+// object (a turntable scanner's coordinates). Over every m-th point, at most ~2000.
+double hidden_share(const ScanData& scan);
 
-// Where the sensor of a scan whose file gave none was, and how that was decided: the frame's
-// origin when the scan looks seen from there (facing_from at least 0.5 and at least 0.8 × that of
-// the estimate: depth cameras and scanners write their own coordinates), else estimated: a range
-// scan is one side of its object, seen along the axis its normals face most (the principal axis
-// of Σ n·nᵀ) from the side its surface bulges to (objects are convex on the whole: normals turned
-// that way point away from the scan's centroid on average), two extents from the centroid. Needs
-// the normals (either sign) and `extent`.
-struct SensorGuess {
-  Eigen::Vector3d eye = Eigen::Vector3d::Zero();
-  SensorSource source = SensorSource::kOrigin;
-};
-SensorGuess sensor_position(const PointCloud& cloud, double extent);
+// Where the sensor of a range scan was, estimated from the scan alone (normals of either sign): a
+// range scan is one side of its object, seen along the axis its normals face most (the principal
+// axis of Σ n·nᵀ), from the side its surface bulges to (objects are convex on the whole: normals
+// turned that way point away from the centroid on average); placed two extents from the centroid.
+Eigen::Vector3d estimated_sensor(const PointCloud& cloud, double extent);
 
 // The object's size: the largest robust extent of a scan (cloud_stats.hpp).
 double largest_extent(const std::vector<ScanData>& scans);
@@ -89,8 +84,13 @@ struct FreeSpacePoints {
 double free_space_share(const ScanData& scan, const Eigen::Isometry3d& T, const DepthMap& map,
                         double margin, FreeSpacePoints which = {});
 
-// The larger of the two shares of a pair's points in front of what the other sensor saw; T maps
-// a into b's frame.
+// What a share of points in front of what `seen_by`'s sensor saw counts for is divided by: 1 for
+// a sensor given or at the origin, kEstimatedSlack (3) for an estimated one, whose lines of sight
+// are off by up to some 30° (every free-space test of the engine reads shares through this).
+double free_space_slack(const ScanData& seen_by);
+
+// The larger of the two shares of a pair's points in front of what the other sensor saw, each
+// divided by that sensor's free_space_slack; T maps a into b's frame.
 double pair_free_space(const ScanData& a, const ScanData& b, const DepthMap& map_a,
                        const DepthMap& map_b, const Eigen::Isometry3d& T, double margin,
                        FreeSpacePoints which = {});
