@@ -18,6 +18,14 @@ namespace {
 
 constexpr double kAgreeDeg = 2, kAgreeShare = 0.02;
 constexpr double kMaxJoinFreeSpace = 0.02;
+// kruskal(): a join above kMaxJoinFreeSpace is still taken when candidates of kConsensusPairs
+// different pairs of scans across the same two groups give it (each within kAgreeDeg and
+// kAgreeShare) and none contradicts more than kMaxConsensusFreeSpace. Two groups built by chaining
+// pairwise poses each carry the drift of their chains, which shows where they close a loop: the
+// Stanford dragon's ring, its halves joined last, contradicted by 2.1-2.7 % at every one of seven
+// right candidates across the cut. A look-alike face turned onto another is one pair's candidate.
+constexpr std::size_t kConsensusPairs = 3;
+constexpr double kMaxConsensusFreeSpace = 0.05;
 constexpr double kAmbiguousShare = 0.5, kMaxAmbiguousFreeSpace = 0.01;
 constexpr std::size_t kJoinSamples = 4000;  // points a scan tests a join with, at most
 // settle(): a scan moves to another placement when that covers at least kCoverGain more of its
@@ -111,6 +119,30 @@ struct Forest {
   std::vector<std::size_t> joins;
 };
 
+// A join kruskal() refused for its contradiction: groups a < b, M mapping b's frame into a's,
+// the candidate's scans.
+struct Refused {
+  std::size_t a, b;
+  Eigen::Isometry3d M;
+  std::size_t source, target;
+};
+
+// Whether `r` and kConsensusPairs − 1 joins refused before it, each of a different pair of scans,
+// join the same two groups by the same motion (compared at the centre of r's scan in group b).
+bool consensus(const Context& x, const Selection& s, const std::vector<Refused>& refused,
+               const Refused& r) {
+  const std::size_t k = s.group[r.source] == r.b ? r.source : r.target;
+  const Eigen::Vector3d c = s.poses[k] * x.centres[k];
+  std::vector<std::pair<std::size_t, std::size_t>> pairs = {{r.source, r.target}};
+  for (const Refused& q : refused) {
+    if (q.a != r.a || q.b != r.b) continue;
+    if (!same_pose(q.M, r.M, c, kAgreeDeg, x.tolerance)) continue;
+    const std::pair<std::size_t, std::size_t> pair{q.source, q.target};
+    if (std::find(pairs.begin(), pairs.end(), pair) == pairs.end()) pairs.push_back(pair);
+  }
+  return pairs.size() >= kConsensusPairs;
+}
+
 Forest kruskal(const Context& x, const std::vector<std::size_t>& order,
                const std::vector<char>& forbidden) {
   const std::size_t n = x.scans.size();
@@ -119,6 +151,7 @@ Forest kruskal(const Context& x, const std::vector<std::size_t>& order,
   s.poses.assign(n, Eigen::Isometry3d::Identity());
   s.group.resize(n);
   std::iota(s.group.begin(), s.group.end(), 0);
+  std::vector<Refused> refused;
   for (std::size_t e : order) {
     if (forbidden[e]) continue;
     const PairCandidate& c = x.candidates[e];
@@ -127,7 +160,14 @@ Forest kruskal(const Context& x, const std::vector<std::size_t>& order,
     // source ≈ T⁻¹·target: target's group frame into source's group frame.
     const Eigen::Isometry3d M =
         s.poses[c.source] * c.T_target_source.inverse() * s.poses[c.target].inverse();
-    if (join_contradiction(x, s, gi, gj, M) > kMaxJoinFreeSpace) continue;
+    const double contradiction = join_contradiction(x, s, gi, gj, M);
+    if (contradiction > kMaxJoinFreeSpace) {
+      const Refused r = gi < gj ? Refused{gi, gj, M, c.source, c.target}
+                                : Refused{gj, gi, M.inverse(), c.source, c.target};
+      const bool taken = contradiction <= kMaxConsensusFreeSpace && consensus(x, s, refused, r);
+      if (contradiction <= kMaxConsensusFreeSpace) refused.push_back(r);
+      if (!taken) continue;
+    }
     // The group whose first scan comes first keeps its frame.
     const bool keep_i = gi < gj;
     const std::size_t keep = keep_i ? gi : gj, moved = keep_i ? gj : gi;
