@@ -373,6 +373,7 @@ def stitch(
     prune_translation: float = ...,
     multiview_iterations: int = ...,
     viewpoints: Optional[ArrayLike] = ...,
+    viewpoint: Optional[ArrayLike] = ...,
     threads: int = ...,
     report: Optional[PathLike] = ...,
     output: Optional[PathLike] = ...,
