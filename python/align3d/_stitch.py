@@ -132,12 +132,11 @@ def stitch(scans: Sequence[Any], *, min_overlap: float = _DEFAULTS["min_overlap"
     name (mixed as you like); the order carries no meaning but the first gives the frame.
     ``viewpoints``: where each scan's sensor was, in its own frame, (K, 3), a row of NaN where
     not known; None: where the file says (a PCD's VIEWPOINT away from the origin, the origin of
-    an organized PCD), else not known. A scan whose
-    sensor is not known gets its frame's origin when the scan could have been seen from there
-    (depth cameras and scanners write their own coordinates), else a position estimated from the
-    scan; the report's
-    ``poses[k]["sensor"]`` says which. ``viewpoint``: one position (3,) for every scan (the
-    ``--viewpoint`` flag); not with ``viewpoints``. ``min_overlap``, ``voxel``
+    an organized PCD), else not known. A scan whose sensor is not known gets its frame's origin
+    when the scan could have been seen from there (depth cameras and scanners write their own
+    coordinates), else a position estimated from the scan; the report's ``poses[k]["sensor"]``
+    says which. ``viewpoint``: one position (3,) for every scan (the ``--viewpoint`` flag); not
+    with ``viewpoints``. ``min_overlap``, ``voxel``
     (0: from the point spacing), ``prune_rotation`` (degrees), ``prune_translation`` (share of the
     object's diameter), ``multiview_iterations``, ``threads``: as the flags (stitching draws no
     random numbers: it takes no seed).

@@ -29,8 +29,7 @@ constexpr std::size_t kMaxListLine = 4096;
 
 struct StitchOptions {
   std::vector<std::string> scans;
-  std::string list, report, output, figure, html, viewpoints;
-  std::optional<Eigen::Vector3d> viewpoint;
+  std::string list, report, output, figure, html, viewpoint, viewpoints;
   bool no_scan_index = false, strict = false, quiet = false;
   StitchSettings settings;
   RefineOptions refine;
@@ -84,7 +83,8 @@ std::vector<std::string> read_list(const std::string& list) {
   return files;
 }
 
-// Three finite numbers separated by spaces, tabs or commas; nullopt otherwise.
+// A line of --viewpoints: three finite numbers separated by spaces, tabs or commas; nullopt
+// otherwise.
 std::optional<Eigen::Vector3d> parse_point(const std::string& text) {
   std::string spaced = text;
   std::replace(spaced.begin(), spaced.end(), ',', ' ');
@@ -167,18 +167,17 @@ int run_stitch(StitchOptions& o, Streams io) {
   if (files.size() < 2)
     throw UsageError("stitch: needs at least two scans (SCAN... or --list FILE), got " +
                      std::to_string(files.size()) + " (see align3d stitch --help)");
+  // The sensors given on the command line, checked before any scan is read.
+  std::vector<std::optional<Eigen::Vector3d>> given(files.size());
+  if (!o.viewpoints.empty()) given = read_viewpoints(o.viewpoints, files.size());
+  if (!o.viewpoint.empty()) given.assign(files.size(), parse_vector(o.viewpoint, "--viewpoint"));
   ProgressLine progress(io.err, o.quiet, "stitch");
   Scans scans = load_scans(files, io, progress);
   StitchSettings& s = o.settings;
   apply_refine_options(o.refine, s.cost);
   s.viewpoints = scans.viewpoints;
-  if (!o.viewpoints.empty()) {
-    const auto listed = read_viewpoints(o.viewpoints, files.size());
-    for (std::size_t k = 0; k < listed.size(); ++k)
-      if (listed[k]) s.viewpoints[k] = listed[k];
-  }
-  if (o.viewpoint)
-    for (auto& v : s.viewpoints) v = o.viewpoint;
+  for (std::size_t k = 0; k < given.size(); ++k)
+    if (given[k]) s.viewpoints[k] = given[k];
   s.progress = progress.callback();
   StitchResult r;
   try {
@@ -278,15 +277,9 @@ Command add_stitch(CLI::App& app, Streams io) {
                   "Write the merged cloud from above and from the front, coloured by scan (PNG)");
   sub->add_option("--html", o->html,
                   "Write an offline HTML page: the figure, the poses, the edges, the warnings");
-  sub->add_option_function<std::string>(
-         "--viewpoint",
-         [o](const std::string& text) {
-           o->viewpoint = parse_point(text);
-           if (!o->viewpoint)
-             throw CLI::ValidationError("--viewpoint", "expected X,Y,Z: 3 finite numbers");
-         },
-         "Every scan's sensor position in its own frame, X,Y,Z (data units): for scans in their "
-         "scanner's coordinates whose files carry none")
+  sub->add_option("--viewpoint", o->viewpoint,
+                  "Every scan's sensor position in its own frame, X,Y,Z (data units): for scans "
+                  "in their scanner's coordinates whose files carry none")
       ->type_name("X,Y,Z");
   sub->add_option("--viewpoints", o->viewpoints,
                   "A file of sensor positions, one line per scan in input order: X Y Z in that "
