@@ -456,6 +456,35 @@ PointCloud bumpy_patch(double x_max, int n, Random& rng) {
   return c;
 }
 
+// check_termination on a constructed history: a loop that repeats a state of period p (same pair
+// count and RMS) stops as a cycle for every p up to kCycleLookback, not before the state repeats
+// and not for a longer period; settings that would never stop otherwise (rms_change 0, no
+// transform criterion).
+TEST(IcpTermination, StopsAtACycleOfAnyPeriodUpToTheLookback) {
+  TerminationSettings settings;
+  settings.rms_change = 0;
+  settings.rotation = 0;
+  const Eigen::Isometry3d delta = Eigen::Isometry3d::Identity();
+  for (std::size_t period = 2; period <= kCycleLookback + 2; ++period) {
+    std::vector<IterationRecord> history;
+    std::size_t stopped_at = 0;
+    StopReason reason = StopReason::kMaxIterations;
+    for (std::size_t k = 0; k < 3 * period && stopped_at == 0; ++k) {
+      // States 1 + k mod p: distinct within a period (RMS and pairs), equal a period apart.
+      const std::size_t state = 1 + k % period;
+      history.push_back({1e-4 * (1 + 1e-3 * static_cast<double>(state)), 1000 + state, 0.01});
+      const double previous = k == 0 ? std::nan("") : history[k - 1].rms;
+      if (check_termination(history, previous, delta, 1.0, settings, reason)) stopped_at = k;
+    }
+    if (period <= kCycleLookback) {
+      EXPECT_EQ(stopped_at, period) << "period " << period;  // the first repeated state
+      EXPECT_EQ(reason, StopReason::kCycle) << "period " << period;
+    } else {
+      EXPECT_EQ(stopped_at, 0u) << "period " << period;
+    }
+  }
+}
+
 TEST(IcpReciprocity, SetsAsideTheOverhangThatDragsPointToPointOffTheRim) {
   Random rng(1);
   const PointCloud target = bumpy_patch(30, 3000, rng);

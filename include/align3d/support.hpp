@@ -3,8 +3,10 @@
 //
 // Of the two clouds, the object is the one of smaller robust extent (coarse/global.hpp), whichever
 // role it has. At a pose T (target ≈ T·source), an object point is "on" the other cloud's surface
-// when a point of the other cloud lies within `reach` of it and within `band` of the object
-// point's tangent plane (its PCA normal, k = 20). `overlap` is the share of the object's points
+// when its nearest point of the other cloud lies within `reach` of it and within `band` of the
+// target's tangent plane there (the PCA normal, k = 20, of the object point when the object is the
+// target, else of that nearest point: always the target's normals, which the ICP's point-to-plane
+// pairs estimate anyway). `overlap` is the share of the object's points
 // that are on the surface: a wrong local minimum lays part of the object onto the other cloud and
 // leaves the rest off, the right pose lays every overlapping part on it. The distances follow the
 // data, so mm and m behave the same:
@@ -43,8 +45,7 @@ struct Support {
 class SupportMeter {
  public:
   // `target_normals`: the target's normals estimated on demand (a NormalCache of `target` with
-  // k = 20, such as a RefineTarget's), shared when the target is the object instead of estimated
-  // again.
+  // k = 20, such as a RefineTarget's), shared instead of estimated again.
   SupportMeter(const PointCloud& source, const PointCloud& target, int threads = 0,
                const KdTree* source_tree = nullptr, const KdTree* target_tree = nullptr,
                const CloudScale* source_scale = nullptr, const CloudScale* target_scale = nullptr,
@@ -65,7 +66,7 @@ class SupportMeter {
   const KdTree* source_tree_;
   const KdTree* target_tree_;
   std::unique_ptr<NormalCache> own_normals_;
-  NormalCache* object_normals_ = nullptr;
+  NormalCache* target_normals_ = nullptr;
   Support base_;  // the pose-independent fields
 };
 

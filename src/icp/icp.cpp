@@ -73,6 +73,14 @@ double mahalanobis(const Vector6d& xi, const Matrix6d& covariance) {
   return std::isfinite(m2) && m2 > 0 ? std::sqrt(m2) : 0.0;
 }
 
+// The length of the update `step` solved for, in standard deviations of the pose its pairs give
+// (√(ξᵀHξ) / σ̂, TerminationSettings::step_sigmas); 0 without a system or a residual.
+double step_length(const IcpStep& step) {
+  if (!(step.rms > 0) || step.hessian.isZero()) return 0;
+  const Vector6d xi = se3_log(step.delta);
+  return std::sqrt(std::max(0.0, xi.dot(step.hessian * xi))) / step.rms;
+}
+
 // The loop; point-to-plane takes its normals from the surface's triangles, from `cache` when there
 // is one (estimating those the kept pairs need first), or from the cloud's normals.
 IcpResult run_icp(const PointCloud& source, const Target& target, const Eigen::Isometry3d& init,
@@ -145,7 +153,7 @@ IcpResult run_icp(const PointCloud& source, const Target& target, const Eigen::I
       break;
     }
     if (check_termination(result.history, previous_rms, step.delta, diagonal, term,
-                          result.stop_reason))
+                          result.stop_reason, term.step_sigmas > 0 ? step_length(step) : 0.0))
       break;
     if (result.iterations >= term.max_iterations) {
       result.stop_reason = StopReason::kMaxIterations;

@@ -10,9 +10,10 @@
 //      clutter an eighth of the scene away), s = target point spacing (median nearest-neighbour
 //      distance), so the same data in mm or m behaves the same;
 //   2. point-to-plane ICP with a maximum correspondence distance τ that starts at L/8 and halves
-//      each time a stage has settled, pairs weighted by a Geman-McClure kernel of scale τ/2, so far
-//      pairs (outliers, the intruder wall) pull little while the distinctive structure (box, cap)
-//      stays in reach long enough to fix x, y and yaw;
+//      each time a stage has settled, while it is above 1.5 times the final stage's floor 3 s,
+//      pairs weighted by a Geman-McClure kernel of scale τ/2, so far pairs (outliers, the intruder
+//      wall) pull little while the distinctive structure (box, cap) stays in reach long enough to
+//      fix x, y and yaw;
 //   3. basin hopping (Wales and Doye 1997) when the answer the final stage (step 4, run first
 //      from the coarse stages' pose) reaches is not confirmed by the data: its fit, the final
 //      stage's own one-to-one pairs within τ_f = max(3 s, 4 σ̂) (σ̂: the last coarse stage's RMS),
@@ -32,7 +33,9 @@
 //      is still unconfirmed after them, GICP's coarse stages from the start are one more candidate
 //      (the source's normals are estimated for it), kept on the same test, and the hops from it
 //      rerun GICP's stages; the final stage runs again from the candidate kept;
-//   4. the requested metric runs to convergence with τ = max(3 s, 4 σ̂), still weighted; onto a
+//   4. the requested metric runs to convergence with τ = max(3 s, 4 σ̂), still weighted, settling
+//      only where its next update is below one standard deviation of the pose
+//      (TerminationSettings::step_sigmas); onto a
 //      point cloud, a pair longer than s/2 enters the update only when it is the shortest pair of
 //      its target point (IcpSettings::reciprocity, 1; below), and point-to-point pairs each
 //      source point with its foot on its partner's tangent plane, not with the sample

@@ -18,12 +18,21 @@ struct TerminationSettings {
   // `translation` × (target bounding-box diagonal). 0 disables this criterion.
   double rotation = 1e-7;
   double translation = 1e-8;
+  // > 0: the RMS criterion stops the loop only where the update it would apply next is shorter
+  // than this many standard deviations of the pose (√(ξᵀHξ)/σ̂: H the pairs' system, σ̂ their
+  // RMS, the covariance σ̂²H⁻¹), since along a valley the RMS barely changes while the pose still
+  // moves. 0: off. (A zero system, point-to-point's, never holds the loop.)
+  double step_sigmas = 0;
 };
+
+// How many evaluations back a repeated state counts as a cycle (check_termination).
+inline constexpr std::size_t kCycleLookback = 10;
 
 enum class StopReason {
   kRmsChange,              // converged: RMS settled
   kTransformChange,        // converged: the update became negligible
-  kCycle,                  // converged: the loop repeats a state of the last 4 iterations exactly
+  kCycle,                  // converged: the loop repeats a state of the last kCycleLookback
+                           // iterations exactly
                            // (same RMS to 1e-12 and same number of pairs): discrete
                            // correspondences flipping back and forth, no further progress
   kMaxIterations,          // not converged: iteration cap
@@ -62,10 +71,13 @@ struct IterationRecord {
 // The convergence criteria, checked on the pose just evaluated (history.back(), whose update is
 // `delta`; `previous_rms` is the RMS of the evaluation before it, NaN for the first): true, with
 // the reason, when the loop should stop there and return that pose. In order: a state of the last
-// 4 evaluations repeats (kCycle), |ΔRMS| below rms_change (kRmsChange), the update below both
-// rotation and translation × `diagonal` (kTransformChange). The iteration cap is the caller's.
+// kCycleLookback evaluations repeats (kCycle), |ΔRMS| below rms_change (kRmsChange), the update
+// below both rotation and translation × `diagonal` (kTransformChange). The iteration cap is the
+// caller's. `step_sigmas`: the length of `delta` in standard deviations of the pose
+// (settings.step_sigmas; NaN or 0 where it was not measured).
 bool check_termination(const std::vector<IterationRecord>& history, double previous_rms,
                        const Eigen::Isometry3d& delta, double diagonal,
-                       const TerminationSettings& settings, StopReason& reason);
+                       const TerminationSettings& settings, StopReason& reason,
+                       double step_sigmas = 0);
 
 }  // namespace align3d
