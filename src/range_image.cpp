@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <optional>
 #include <string>
 
 #include "align3d/cloud_stats.hpp"
@@ -18,6 +19,9 @@ constexpr std::size_t kMinScenePoints = 10;
 constexpr double kMaxFitResidualPx = 0.5;
 constexpr double kMaxSpreadDeg = 150;
 constexpr int kMaxProjectedSide = 4096;  // pixels: bounds the made-up image's memory
+// The given orientation is kept while the image's own rays agree with it to this angle.
+constexpr double kMaxOrientationDeg = 1.0;
+constexpr std::size_t kResectionSamples = 20000;  // points the resection reads at most
 
 RangeImage empty_image(int width, int height) {
   RangeImage image;
@@ -55,20 +59,83 @@ LineFit fit_axis(const std::vector<Eigen::Vector2d>& samples) {  // (ratio, c)
   return {x(0), x(1), std::sqrt(sum / static_cast<double>(samples.size()))};
 }
 
+// The camera's orientation from the image itself (camera resection with its centre `eye` known,
+// the direct linear transform): the 3×3 M = K·R with (u, v, 1) ∝ M·(p − eye) for every pixel's
+// point, the smallest eigenvector of the stacked constraints (pixel coordinates normalized to
+// ±1, Hartley 1997), then split by an RQ decomposition into the upper-triangular intrinsics K and
+// the rotation R (cloud → camera). Hand-written: Eigen has the pieces, no library resects with a
+// known centre. nullopt when the rays do not determine a right-handed camera in front of them.
+std::optional<Eigen::Matrix3d> resected_rotation(const PointCloud& cloud,
+                                                 const std::vector<std::uint32_t>& pixels,
+                                                 int width, int height,
+                                                 const Eigen::Vector3d& eye) {
+  const double half = 0.5 * std::max(width, height);
+  Eigen::Matrix<double, 9, 9> normal = Eigen::Matrix<double, 9, 9>::Zero();
+  const std::size_t step = std::max<std::size_t>(1, cloud.size() / kResectionSamples);
+  std::vector<Eigen::Vector3d> rays;
+  for (std::size_t i = 0; i < cloud.size(); i += step) {
+    const Eigen::Vector3d d = cloud.positions[i] - eye;
+    if (!(d.norm() > 0)) continue;
+    rays.push_back(d.normalized());
+    const double u =
+        (static_cast<double>(pixels[i] % static_cast<std::uint32_t>(width)) - 0.5 * width) / half;
+    const double v =
+        (static_cast<double>(pixels[i] / static_cast<std::uint32_t>(width)) - 0.5 * height) / half;
+    Eigen::Matrix<double, 9, 1> a = Eigen::Matrix<double, 9, 1>::Zero(), b = a;
+    a << rays.back(), Eigen::Vector3d::Zero(), -u * rays.back();
+    b << Eigen::Vector3d::Zero(), rays.back(), -v * rays.back();
+    normal.noalias() += a * a.transpose() + b * b.transpose();
+  }
+  if (rays.size() < kMinScenePoints) return std::nullopt;
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 9, 9>> eig(normal);
+  const Eigen::Matrix<double, 9, 1> m = eig.eigenvectors().col(0);
+  Eigen::Matrix3d M;
+  M << m.segment<3>(0).transpose(), m.segment<3>(3).transpose(), m.segment<3>(6).transpose();
+  std::size_t front = 0;
+  for (const Eigen::Vector3d& r : rays) front += M.row(2).dot(r) > 0;
+  if (2 * front < rays.size()) M = -M;
+  Eigen::Matrix3d to_pixels;  // undoes the normalization
+  to_pixels << half, 0, 0.5 * width, 0, half, 0.5 * height, 0, 0, 1;
+  M = to_pixels * M;
+  // RQ: with J the row reversal, QR of (J·M)ᵀ = Q·U gives M = (J·Uᵀ·J)·(J·Qᵀ).
+  Eigen::Matrix3d J;
+  J << 0, 0, 1, 0, 1, 0, 1, 0, 0;
+  const Eigen::HouseholderQR<Eigen::Matrix3d> qr((J * M).transpose());
+  const Eigen::Matrix3d Q = qr.householderQ();
+  const Eigen::Matrix3d U = qr.matrixQR().triangularView<Eigen::Upper>();
+  const Eigen::Matrix3d K = J * U.transpose() * J;
+  Eigen::Matrix3d R = J * Q.transpose();
+  for (int k = 0; k < 3; ++k)  // K's diagonal positive: its sign moves into R's row
+    if (K(k, k) < 0) R.row(k) *= -1;
+  if (!(R.determinant() > 0) || !R.allFinite()) return std::nullopt;  // a mirrored image
+  return R;
+}
+
 }  // namespace
 
 RangeImage organized_range_image(const PointCloud& cloud, const std::vector<std::uint32_t>& pixels,
-                                 int width, int height, const Eigen::Isometry3d& T_cloud_camera) {
+                                 int width, int height, const Eigen::Isometry3d& T_given) {
   if (width <= 0 || height <= 0 || pixels.size() != cloud.size())
     throw DataError("scene", "an organized cloud needs one pixel index per point");
   const auto n = static_cast<std::size_t>(width) * static_cast<std::size_t>(height);
-  const Eigen::Isometry3d T_camera_cloud = T_cloud_camera.inverse();
-  std::vector<Eigen::Vector2d> us, vs;  // (x/z, u), (y/z, v)
-  for (std::size_t i = 0; i < cloud.size(); ++i) {
+  for (std::size_t i = 0; i < cloud.size(); ++i)
     if (pixels[i] >= n)
       throw DataError("scene", "pixel index " + std::to_string(pixels[i]) + " outside the " +
                                    std::to_string(width) + " x " + std::to_string(height) +
                                    " image");
+  // The orientation the image's rays give replaces a given one they contradict (a PCD VIEWPOINT
+  // is often a placeholder: PCL's own Kinect frames carry a half turn about x).
+  Eigen::Isometry3d T_cloud_camera = T_given;
+  double disagreement = 0;
+  if (const auto R = resected_rotation(cloud, pixels, width, height, T_given.translation())) {
+    const Eigen::Matrix3d rays_camera = R->transpose();  // camera → cloud
+    disagreement = Eigen::AngleAxisd(T_given.linear().transpose() * rays_camera).angle();
+    if (disagreement > kMaxOrientationDeg * std::numbers::pi / 180)
+      T_cloud_camera.linear() = rays_camera;
+  }
+  const Eigen::Isometry3d T_camera_cloud = T_cloud_camera.inverse();
+  std::vector<Eigen::Vector2d> us, vs;  // (x/z, u), (y/z, v)
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
     const Eigen::Vector3d p = T_camera_cloud * cloud.positions[i];
     if (!(p.z() > 0)) continue;
     us.emplace_back(p.x() / p.z(), static_cast<double>(pixels[i] % width));
@@ -81,6 +148,8 @@ RangeImage organized_range_image(const PointCloud& cloud, const std::vector<std:
   RangeImage image = empty_image(width, height);
   image.T_cloud_camera = T_cloud_camera;
   image.organized = true;
+  image.given_orientation_error_deg = disagreement * 180 / std::numbers::pi;
+  image.orientation_from_rays = disagreement > kMaxOrientationDeg * std::numbers::pi / 180;
   image.fx = fu.f, image.cx = fu.centre, image.fy = fv.f, image.cy = fv.centre;
   image.fit_rms_px = std::hypot(fu.rms, fv.rms);
   if (!(image.fx > 0 && image.fy > 0) || !(image.fit_rms_px <= kMaxFitResidualPx))

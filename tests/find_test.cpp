@@ -82,6 +82,54 @@ TEST(FindScene, OrganizedRangeImageRecoversThePinhole) {
   EXPECT_NEAR(r.depth[r.pixel(5, 4)], 800 + 10 - 6, 1e-4);
 }
 
+// The same kind of image seen by a camera at a known pose in a world frame: given that pose, the
+// rays agree with it (kept, off by less than 1e-6°); given the pose with its orientation turned by
+// a half turn about x (the placeholder VIEWPOINT of PCL's Kinect frames) or by 30° about a tilted
+// axis, the orientation the rays give replaces it, equal to the true one, and the intrinsics are
+// the camera's. A mirrored image (columns reversed) fits no right-handed camera: an error.
+TEST(FindScene, OrganizedRangeImageResectsAWrongOrientation) {
+  const int w = 80, h = 60;
+  const double fx = 280, fy = 285, cx = 41.3, cy = 28.9;
+  const Eigen::Isometry3d truth = Eigen::Translation3d(0.3, -0.2, 1.5) *
+                                  Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, -0.5).normalized());
+  auto image_of = [&](bool mirrored) {
+    std::vector<Eigen::Vector3d> image(w * h, Eigen::Vector3d::Constant(NAN));
+    for (int v = 0; v < h; ++v)
+      for (int u = 0; u < w; ++u) {
+        if ((u * 5 + v * 3) % 13 == 0) continue;  // holes
+        const double z = 1.2 + 0.2 * std::sin(u / 9.0) * std::cos(v / 7.0);
+        const int at = v * w + (mirrored ? w - 1 - u : u);
+        image[at] = truth * Eigen::Vector3d((u - cx) * z / fx, (v - cy) * z / fy, z);
+      }
+    return image;
+  };
+  const FindScene scene = organized_scene(image_of(false), w, h);
+  auto range = [&](const Eigen::Isometry3d& given) {
+    return organized_range_image(scene.cloud, scene.pixels, w, h, given);
+  };
+  const RangeImage kept = range(truth);
+  EXPECT_FALSE(kept.orientation_from_rays);
+  EXPECT_LT(kept.given_orientation_error_deg, 1e-6);
+  for (const Eigen::Isometry3d wrong :
+       {Eigen::Isometry3d(truth * Eigen::AngleAxisd(std::numbers::pi, Eigen::Vector3d::UnitX())),
+        Eigen::Isometry3d(truth * Eigen::AngleAxisd(std::numbers::pi / 6,
+                                                    Eigen::Vector3d(1, 1, 0).normalized()))}) {
+    const RangeImage r = range(wrong);
+    EXPECT_TRUE(r.orientation_from_rays);
+    EXPECT_NEAR(r.given_orientation_error_deg,
+                Eigen::AngleAxisd(wrong.linear().transpose() * truth.linear()).angle() * 180 /
+                    std::numbers::pi,
+                1e-6);
+    EXPECT_TRUE(r.T_cloud_camera.isApprox(truth, 1e-9)) << r.T_cloud_camera.matrix();
+    EXPECT_NEAR(r.fx, fx, 1e-6);
+    EXPECT_NEAR(r.fy, fy, 1e-6);
+    EXPECT_NEAR(r.cx, cx, 1e-6);
+    EXPECT_NEAR(r.cy, cy, 1e-6);
+  }
+  const FindScene mirrored = organized_scene(image_of(true), w, h);
+  EXPECT_THROW(organized_range_image(mirrored.cloud, mirrored.pixels, w, h, truth), DataError);
+}
+
 TEST(FindScene, PcdReaderKeepsEachPointsPixel) {
   const fs::path path = fs::temp_directory_path() / "align3d_find_organized.pcd";
   PointCloud grid;

@@ -4,12 +4,13 @@
 // Camera frame: x right, y down, z forward (the optical axis). Pixel (u, v) is column u, row v;
 // a point p projects to u = cx + fx·p.x / p.z, v = cy + fy·p.y / p.z (OpenCV's convention).
 //
-// From an organized cloud (a depth camera's image, its points in the camera frame) the
-// intrinsics are fitted by least squares to u·z = cx·z + fx·x (and v likewise) over its valid
-// pixels: exact for a pinhole camera, whatever the depth noise along the rays. An unorganized
-// cloud is projected through a made-up pinhole looking along its points' mean direction from the
-// camera, with one pixel per median point spacing; where several points fall on a pixel the
-// nearest is kept.
+// From an organized cloud (a depth camera's image) the camera's orientation is resected from the
+// pixels' rays about the given camera position (the given orientation is kept when it agrees to
+// 1°), then the intrinsics are fitted by least squares to u·z = cx·z + fx·x (and v likewise) over
+// its valid pixels: exact for a pinhole camera, whatever the depth noise along the rays. An
+// unorganized cloud is projected through a made-up pinhole looking along its points' mean direction
+// from the camera, with one pixel per median point spacing; where several points fall on a pixel
+// the nearest is kept.
 #pragma once
 
 #include <Eigen/Geometry>
@@ -29,6 +30,10 @@ struct RangeImage {
   std::vector<std::int32_t> point;  // the cloud's point at the pixel, or −1
   bool organized = false;           // from an organized cloud (else projected)
   double fit_rms_px = 0;            // organized: the pinhole fit's residual, pixels
+  // Organized: the angle between the given orientation and the one the rays give (degrees), and
+  // whether the rays' replaced the given one (more than 1° apart).
+  double given_orientation_error_deg = 0;
+  bool orientation_from_rays = false;
 
   std::size_t pixel(int u, int v) const {
     return static_cast<std::size_t>(v) * static_cast<std::size_t>(width) +
@@ -40,12 +45,13 @@ struct RangeImage {
   }
 };
 
-// `cloud` in the camera frame T_cloud_camera; `pixels[i]` the pixel index (v·width + u) of point
-// i. Throws DataError("scene", …) when fewer than 10 points have positive depth, the pixel indices
-// are out of range, or the points do not fit a pinhole camera (residual above 0.5 pixel: not a
-// depth image, or points not in the camera's frame).
+// `cloud` seen by a camera at T_given (its orientation replaced by the rays' where they disagree);
+// `pixels[i]` the pixel index (v·width + u) of point i. Throws DataError("scene", …) when fewer
+// than 10 points have positive depth, the pixel indices are out of range, or the points do not fit
+// a pinhole camera (residual above 0.5 pixel: not a depth image, or points not in the camera's
+// frame).
 RangeImage organized_range_image(const PointCloud& cloud, const std::vector<std::uint32_t>& pixels,
-                                 int width, int height, const Eigen::Isometry3d& T_cloud_camera);
+                                 int width, int height, const Eigen::Isometry3d& T_given);
 
 // Projects an unorganized cloud seen from the camera at T_cloud_camera (its z axis is replaced by
 // the points' mean direction). Throws DataError("scene", …) when fewer than 10 points lie in

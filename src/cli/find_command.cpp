@@ -126,7 +126,8 @@ Command add_find(CLI::App& app, Streams io) {
       ->required();
   sub->add_option("SCENE", o->scene,
                   "The scene: an organized PCD from a depth camera (WIDTH x HEIGHT, NaN holes, "
-                  "VIEWPOINT the camera), or any cloud seen from its viewpoint or the origin")
+                  "VIEWPOINT the camera's position; its orientation and intrinsics are fitted to "
+                  "the pixels' rays), or any cloud seen from its viewpoint or the origin")
       ->required();
   sub->add_option("--max-instances", s.max_instances, "Report at most N instances; 0: all")
       ->check(CLI::NonNegativeNumber)

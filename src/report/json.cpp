@@ -282,6 +282,8 @@ nlohmann::json find_report(const FindResult& r, const FindSettings& s, const Inp
             {"height", im.height},
             {"camera", {{"fx", im.fx}, {"fy", im.fy}, {"cx", im.cx}, {"cy", im.cy}}},
             {"camera_pose", to_json(im.T_cloud_camera)},
+            {"orientation_from_rays", im.orientation_from_rays},
+            {"given_orientation_error_deg", im.given_orientation_error_deg},
             {"depth_dropped", r.depth_dropped},
             {"plane_points", r.plane_points},
             {"voting_points", r.voting_points}}},
