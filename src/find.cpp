@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <memory>
+#include <numbers>
 #include <numeric>
 #include <stdexcept>
 
@@ -170,9 +171,10 @@ struct Evidence {
   std::vector<std::uint32_t> pixels;  // where the explained points were matched
   double continuation = 0;            // outline_continuation
   bool larger_surface = false;        // any_face_overhangs
+  bool unseen_side = false;           // a partial model showing its unscanned side (verify)
   double score(std::size_t explained_free) const {
     const double seen = std::max<double>(1, static_cast<double>(visible - missing - occluded));
-    if (visible_fraction() < kFindMinVisible || larger_surface) return -1;
+    if (unseen_side || visible_fraction() < kFindMinVisible || larger_surface) return -1;
     return (static_cast<double>(explained_free) - static_cast<double>(seen_through)) / seen -
            continuation;
   }
@@ -433,7 +435,15 @@ void reclassify_occluded(const PpfModel& model, const KdTree& model_tree, const 
 }
 
 Evidence verify(const PpfModel& model, const KdTree& model_tree, const Prepared& prep,
-                const Eigen::Isometry3d& T_camera_model) {
+                const ModelSide& side, const Eigen::Isometry3d& T_camera_model) {
+  Evidence ev;
+  // A partial model turned so that the camera would see its unscanned side: nothing to verify.
+  const Eigen::Vector3d to_camera = -(T_camera_model * centroid(model.points)).normalized();
+  if (side.partial && (T_camera_model.linear() * side.seen_from).dot(to_camera) <
+                          std::cos(kFindMaxUnseenDeg * std::numbers::pi / 180)) {
+    ev.unseen_side = true;
+    return ev;
+  }
   const RangeImage& image = prep.image;
   const double voxel = model.voxel;
   const double explain = kExplainVoxels * voxel, free = kFreeSpaceVoxels * voxel;
@@ -448,7 +458,6 @@ Evidence verify(const PpfModel& model, const KdTree& model_tree, const Prepared&
       depth > 0 ? std::max(2, static_cast<int>(std::lround(0.5 * voxel * image.fx / depth))) : 2;
   ModelView view = view_model(p, n, image, voxel, margin);
   const std::vector<Eigen::Vector2i>& uv = view.uv;
-  Evidence ev;
   std::vector<std::size_t> explained_model, occluders;  // occluders: the scene points in front
   for (std::size_t i : view.visible) {
     ++ev.visible;
@@ -563,6 +572,60 @@ FindScene read_find_scene(const std::filesystem::path& path) {
   return scene;
 }
 
+namespace {
+
+// Seen from `eye`, of the points whose surface does not graze the line of sight (|n·ray| at least
+// kMinFacing, whatever the normal's sign): the share more than 3 point spacings behind another
+// point in their direction (a pixel of projected_range_image spans about one spacing), and the
+// share whose normal faces away from the eye. 1 and 1 when no single view sees the points.
+struct SideShares {
+  double hidden = 1, back = 1;
+};
+SideShares shares_from(const PointCloud& model, const Eigen::Vector3d& eye) {
+  RangeImage image;
+  try {
+    image = projected_range_image(model, Eigen::Isometry3d(Eigen::Translation3d(eye)));
+  } catch (const DataError&) {
+    return {};
+  }
+  const Eigen::Isometry3d T_camera_cloud = image.T_cloud_camera.inverse();
+  std::size_t tested = 0, hidden = 0, back = 0;
+  for (std::size_t i = 0; i < model.size(); ++i) {
+    const Eigen::Vector3d ray = (eye - model.positions[i]).normalized();
+    const double facing = model.normals[i].dot(ray);
+    if (std::abs(facing) < kMinFacing) continue;
+    ++tested;
+    back += facing < 0;
+    const Eigen::Vector3d p = T_camera_cloud * model.positions[i];
+    const Eigen::Vector2d uv = image.project(p);
+    const long u = std::lround(uv.x()), v = std::lround(uv.y());
+    if (u < 0 || v < 0 || u >= image.width || v >= image.height) continue;
+    hidden += p.z() > image.depth[image.pixel(static_cast<int>(u), static_cast<int>(v))] +
+                          3 * p.z() / image.fx;
+  }
+  if (tested == 0) return {};
+  const auto share = [&](std::size_t k) {
+    return static_cast<double>(k) / static_cast<double>(tested);
+  };
+  return {share(hidden), share(back)};
+}
+
+}  // namespace
+
+ModelSide model_side(const PointCloud& model) {
+  ModelSide side;
+  if (model.size() < 10 || !model.has_normals()) return side;
+  const Eigen::Vector3d eye = estimated_viewpoint(model, bounding_box_diagonal(model));
+  side.seen_from = (eye - centroid(model)).normalized();
+  const SideShares shares = shares_from(model, eye);
+  side.hidden_share = shares.hidden;
+  // A closed surface hides its far side from any eye (a thin plate's lies too close behind to
+  // tell), and its outward normals face away from it on about half its area; a partial one shows
+  // its eye nearly everything, facing it.
+  side.partial = shares.hidden <= kFindMaxHiddenShare && shares.back <= kFindMaxHiddenShare;
+  return side;
+}
+
 PpfModel build_find_model(const TriangleMesh& mesh, double voxel_fraction, int threads) {
   check_mesh(mesh, "model");
   const PointCloud samples = sample_surface(mesh, kFindModelSamples);
@@ -579,13 +642,23 @@ PpfModel build_find_model(const PointCloud& model, double voxel_fraction, int th
   if (!(diameter > 0) || !std::isfinite(diameter))
     throw DataError("model", "all its points coincide or are not finite");
   if (model.has_normals()) return build_ppf_model(model, voxel_fraction * diameter, threads, true);
-  // No normals: outward taken as away from the centroid (right for convex parts).
+  // No normals: the surface's (PCA), turned toward the scanner of a model that is one side of its
+  // part (seen from its estimated sensor, it hides almost nothing), where the surface faces it,
+  // and elsewhere away from the centroid (outward on a convex part, and on the faces a one-sided
+  // scan sees at a grazing angle).
   PointCloud oriented = model;
+  NormalSettings ns;
+  ns.threads = threads;
   const Eigen::Vector3d c = centroid(model);
-  oriented.normals.resize(model.size());
-  for (std::size_t i = 0; i < model.size(); ++i) {
-    const Eigen::Vector3d d = model.positions[i] - c;
-    oriented.normals[i] = d.norm() > 0 ? Eigen::Vector3d(d.normalized()) : Eigen::Vector3d::UnitZ();
+  ns.viewpoint = c;
+  estimate_normals(oriented, ns);
+  const Eigen::Vector3d eye = estimated_viewpoint(oriented, diameter);
+  const bool one_side = shares_from(oriented, eye).hidden <= kFindMaxHiddenShare;
+  for (std::size_t i = 0; i < oriented.size(); ++i) {
+    Eigen::Vector3d& n = oriented.normals[i];
+    const Eigen::Vector3d ray = (eye - oriented.positions[i]).normalized();
+    const bool toward_eye = one_side && std::abs(n.dot(ray)) >= kMinFacing;
+    if (toward_eye ? n.dot(ray) < 0 : n.dot(oriented.positions[i] - c) < 0) n = -n;
   }
   return build_ppf_model(oriented, voxel_fraction * diameter, threads, true);
 }
@@ -706,6 +779,7 @@ FindResult find(const PpfModel& model, const FindScene& scene, const FindSetting
   result.symmetry = settings.detect_symmetry
                         ? detect_symmetry(model.points, kSymmetryVoxels * model.voxel, threads)
                         : settings.symmetry;
+  result.model_side = model_side(model.points);
   const Prepared prep = prepare_scene(scene, model, settings);
   result.image = prep.image;
   result.depth_dropped = prep.depth_dropped;
@@ -736,7 +810,7 @@ FindResult find(const PpfModel& model, const FindScene& scene, const FindSetting
 
   lap = Clock::now();
   parallel_tasks(hyps.size(), threads, [&](std::size_t h) {
-    hyps[h].evidence = verify(model, model_tree, prep, hyps[h].T_camera_model);
+    hyps[h].evidence = verify(model, model_tree, prep, result.model_side, hyps[h].T_camera_model);
   });
   std::vector<std::vector<std::uint32_t>> points;
   const std::vector<std::size_t> accepted =
@@ -748,7 +822,7 @@ FindResult find(const PpfModel& model, const FindScene& scene, const FindSetting
     const Eigen::Isometry3d T =
         final_refine(model, model_tree, prep, points[k], h.T_camera_model, settings.cost, out.rms);
     out.T_scene_model = canonical_pose(prep.image.T_cloud_camera * T, result.symmetry);
-    const Evidence ev = verify(model, model_tree, prep, T);
+    const Evidence ev = verify(model, model_tree, prep, result.model_side, T);
     out.score = ev.score(std::min(ev.explained, h.evidence.explained));
     out.visible_fraction = ev.visible_fraction();
     out.points = instance_points(model, model_tree, prep, T);

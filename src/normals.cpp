@@ -1,5 +1,6 @@
 #include "align3d/normals.hpp"
 
+#include <algorithm>
 #include <stdexcept>
 #include <string>
 
@@ -67,6 +68,31 @@ NormalResult estimate_normals(PointCloud& cloud, const KdTree& tree,
 NormalResult estimate_normals(PointCloud& cloud, const NormalSettings& settings) {
   const KdTree tree(cloud.positions, settings.threads);
   return estimate_normals(cloud, tree, settings);
+}
+
+Eigen::Vector3d estimated_viewpoint(const PointCloud& cloud, double extent) {
+  if (cloud.empty() || !cloud.has_normals())
+    throw std::invalid_argument("estimated_viewpoint: needs points with normals");
+  constexpr std::size_t kSamples = 2000;
+  constexpr double kDistance = 2.0;  // extents from the centroid
+  const std::size_t m = std::max<std::size_t>(1, (cloud.size() + kSamples - 1) / kSamples);
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d facing = Eigen::Matrix3d::Zero();
+  std::size_t count = 0;
+  for (std::size_t i = 0; i < cloud.size(); i += m, ++count) {
+    centroid += cloud.positions[i];
+    facing.noalias() += cloud.normals[i] * cloud.normals[i].transpose();
+  }
+  centroid /= static_cast<double>(count);
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(facing);
+  Eigen::Vector3d axis = eig.eigenvectors().col(2);
+  double bulge = 0;  // Σ (p − c)·n with each n turned towards +axis
+  for (std::size_t i = 0; i < cloud.size(); i += m) {
+    const Eigen::Vector3d& n = cloud.normals[i];
+    bulge += (cloud.positions[i] - centroid).dot(n.dot(axis) < 0 ? Eigen::Vector3d(-n) : n);
+  }
+  if (bulge < 0) axis = -axis;
+  return centroid + kDistance * std::max(extent, 0.0) * axis;
 }
 
 NormalCache::NormalCache(const PointCloud& cloud, const KdTree& tree,

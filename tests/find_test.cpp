@@ -17,6 +17,7 @@
 #include "align3d/instance_match.hpp"
 #include "align3d/io/point_cloud_io.hpp"
 #include "align3d/synth/bin_picking.hpp"
+#include "test_util.hpp"
 
 namespace align3d {
 namespace {
@@ -347,6 +348,51 @@ TEST(PpfHypotheses, APlaceCapLetsTheLessSeenPartsIn) {
   EXPECT_EQ(by_capped, reached(all.begin(), all.end()));
   EXPECT_LT(by_first, by_capped);
   EXPECT_GE(by_capped, 6u);  // the scene has such parts (else the test proves nothing)
+}
+
+// Whole parts and scans of them: the bin's CAD parts (the plate too, whose far side lies a few
+// millimetres behind its near one) are whole; the points a depth camera saw of one of them in a
+// generated bin, without normals, are a partial model seen from the camera's side (its sensor
+// estimated within 45° of the camera's direction).
+TEST(FindModel, PartsAreWholeAndTheirScansPartial) {
+  for (BinPart part : {BinPart::kBracket, BinPart::kFlange, BinPart::kPlate}) {
+    SCOPED_TRACE(synth::to_string(part));
+    const PpfModel whole = build_find_model(synth::bin_part_mesh(part));
+    EXPECT_FALSE(model_side(whole.points).partial);
+    synth::BinPickingSettings bs;
+    bs.part = part, bs.instances = 1, bs.distractors = 0, bs.seed = 7;
+    const synth::BinPickingScene scene = synth::make_bin_picking_scene(bs);
+    PointCloud seen;
+    for (std::size_t k = 0; k < scene.cloud.positions.size(); ++k)
+      if (scene.cloud.shape[k] == 0) seen.positions.push_back(scene.cloud.positions[k]);
+    ASSERT_GT(seen.size(), 200u);
+    const PpfModel scan = build_find_model(seen);
+    const ModelSide side = model_side(scan.points);
+    EXPECT_TRUE(side.partial) << side.hidden_share;
+    EXPECT_GT(side.seen_from.dot(-centroid(seen).normalized()), std::cos(std::numbers::pi / 4));
+  }
+}
+
+// A part taught from a scan of it in one generated bin (its points, no normals, moved by a known
+// pose) is found in that bin among distractors, once, where the cut undoes the move.
+TEST(Find, FindsAPartTaughtFromAScanOfIt) {
+  synth::BinPickingSettings bs;
+  bs.part = BinPart::kBracket, bs.instances = 1, bs.distractors = 3, bs.seed = 11;
+  const synth::BinPickingScene scene = synth::make_bin_picking_scene(bs);
+  const Eigen::Isometry3d moved = Eigen::Translation3d(40, -25, 300) *
+                                  Eigen::AngleAxisd(2.0, Eigen::Vector3d(1, -1, 0.5).normalized());
+  PointCloud taught;
+  for (std::size_t k = 0; k < scene.cloud.positions.size(); ++k)
+    if (scene.cloud.shape[k] == 0) taught.positions.push_back(moved * scene.cloud.positions[k]);
+  FindSettings fs;
+  fs.threads = 2;
+  const FindResult r = find(build_find_model(taught, kFindVoxelFraction, 2), scene_of(scene), fs);
+  EXPECT_TRUE(r.model_side.partial);
+  ASSERT_EQ(r.instances.size(), 1u);
+  const Eigen::Isometry3d truth = moved.inverse();
+  const Eigen::Vector3d c = centroid(taught);
+  EXPECT_LT(test::rotation_error_deg(r.instances[0].T_scene_model, truth), 2.0);
+  EXPECT_LT((r.instances[0].T_scene_model * c - truth * c).norm(), 0.02 * r.model_diameter);
 }
 
 TEST(Find, SameResultWithOneAndTwoThreads) {

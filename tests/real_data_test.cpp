@@ -15,7 +15,9 @@
 #include <vector>
 
 #include "align3d/align.hpp"
+#include "align3d/find.hpp"
 #include "align3d/io/point_cloud_io.hpp"
+#include "align3d/plane/plane.hpp"
 #include "align3d/stitch.hpp"
 #include "test_util.hpp"
 
@@ -25,6 +27,7 @@ namespace {
 namespace fs = std::filesystem;
 
 const fs::path kDragon = fs::path(ALIGN3D_REAL_DATA_DIR) / "stanford-dragon";
+const fs::path kKinect = fs::path(ALIGN3D_REAL_DATA_DIR) / "pcl-kinect";
 
 // The dragon's directory, or a failure naming where it should be.
 ::testing::AssertionResult dragon_present() {
@@ -133,6 +136,43 @@ TEST(RealScans, DragonScansWithoutSensorPositionsStitch) {
     EXPECT_GT((got.viewpoint - c).normalized().z(), 0.5);
   }
   EXPECT_TRUE(r.warnings.empty()) << warning_lines(r.warnings);
+}
+
+// A part taught from a scan (issue 57): the smaller box of PCL's first Kinect frame (two boxes on
+// a table, 640 x 480, VIEWPOINT a half turn off the camera), cut out of the frame (its pixels in
+// a window around it, more than 15 mm above the table's plane) and moved by a known pose, no
+// normals: find() takes it for a partial model and finds the box in the frame, once, at the pose
+// the cut undoes. The other box, the table and the room are the distractors.
+TEST(RealScans, KinectBoxTaughtFromTheFrameIsFoundOnce) {
+  const fs::path frame = kKinect / "frame_20121214T142255.814212.pcd";
+  ASSERT_TRUE(fs::is_regular_file(frame))
+      << "the real Kinect frames are missing: expected " << frame
+      << " (../shared/data/real/ beside the repository, or -DALIGN3D_REAL_DATA_DIR=<dir>)";
+  const FindScene scene = read_find_scene(frame);
+  const Plane table = ransac_plane(scene.cloud.positions, {0.01, 500, 1, 20000}).plane;
+  const double camera_side = table.signed_distance(Eigen::Vector3d::Zero()) > 0 ? 1 : -1;
+  PointCloud taught;
+  for (std::size_t i = 0; i < scene.cloud.size(); ++i) {
+    const std::uint32_t u = scene.pixels[i] % 640, v = scene.pixels[i] / 640;
+    if (u >= 382 && u < 520 && v >= 160 && v < 330 &&
+        camera_side * table.signed_distance(scene.cloud.positions[i]) > 0.015)
+      taught.positions.push_back(scene.cloud.positions[i]);
+  }
+  ASSERT_GT(taught.size(), 10000u);
+  const Eigen::Isometry3d moved = Eigen::Translation3d(0.5, -0.2, 0.3) *
+                                  Eigen::AngleAxisd(0.7, Eigen::Vector3d(0.3, 1, 0.2).normalized());
+  for (Eigen::Vector3d& p : taught.positions) p = moved * p;
+  const PpfModel model = build_find_model(taught, kFindVoxelFraction, 2);
+  FindSettings s;
+  s.threads = 2;
+  const FindResult r = find(model, scene, s);
+  EXPECT_TRUE(r.model_side.partial);
+  EXPECT_TRUE(r.image.orientation_from_rays);
+  ASSERT_EQ(r.instances.size(), 1u);
+  const Eigen::Isometry3d truth = moved.inverse();  // scene ≈ T·model
+  const Eigen::Vector3d c = centroid(taught);
+  EXPECT_LT(test::rotation_error_deg(r.instances[0].T_scene_model, truth), 2.0);
+  EXPECT_LT((r.instances[0].T_scene_model * c - truth * c).norm(), 0.005);  // metres
 }
 
 }  // namespace

@@ -119,6 +119,25 @@ FindScene organized_scene(const std::vector<Eigen::Vector3d>& image, std::size_t
 // read_point_cloud throws (IoError naming the file).
 FindScene read_find_scene(const std::filesystem::path& path);
 
+// Whether a model is one side of its part (partial: a teach-in scan, cloud or mesh) or its whole
+// surface. Its sensor is placed where a one-sided scan's would be (estimated_viewpoint,
+// normals.hpp); the model is partial when that sensor sees nearly all of it: at most
+// kFindMaxHiddenShare of its points lie more than 3 point spacings behind another of its points
+// in their direction (a closed part hides its far side: about half). `seen_from`: the unit
+// direction from the model's centroid toward that sensor, in the model's frame.
+inline constexpr double kFindMaxHiddenShare = 0.2;
+// A partial model is verified only at poses that show its scanned side to the camera: `seen_from`
+// within this angle of the direction from the part to the camera (beyond it the camera would see
+// the side no scan recorded, where nothing can be confirmed or contradicted).
+inline constexpr double kFindMaxUnseenDeg = 60;
+struct ModelSide {
+  bool partial = false;
+  Eigen::Vector3d seen_from = Eigen::Vector3d::Zero();
+  double hidden_share = 0;  // of the model's points, seen from the estimated sensor
+};
+// `model`: points with normals (of either sign).
+ModelSide model_side(const PointCloud& model);
+
 struct FoundInstance {
   Eigen::Isometry3d T_scene_model;  // maps MODEL coordinates into the SCENE's frame
   double score = 0;
@@ -131,6 +150,7 @@ struct FoundInstance {
 struct FindResult {
   std::vector<FoundInstance> instances;  // best score first
   Symmetry symmetry;                     // of the model, as used
+  ModelSide model_side;                  // whether the model is a partial scan
   double model_diameter = 0, voxel = 0;  // voxel: the model's (= the scene's downsampling)
   std::size_t model_points = 0;          // in the feature table
   // The scene: its camera (estimated from an organized cloud, or made up for an unorganized one),
@@ -143,7 +163,8 @@ struct FindResult {
 };
 
 // The model description find() needs, built from a mesh (sampled evenly by area, face normals) or
-// from a cloud (its normals if it has them, else normals turned away from its centroid). Throws
+// from a cloud (its normals if it has them; else PCA normals, k = 20, turned toward the sensor of
+// a partial model (model_side) and away from the centroid of a whole one). Throws
 // DataError("model", …) for a model too small or degenerate to sample.
 PpfModel build_find_model(const TriangleMesh& mesh, double voxel_fraction = kFindVoxelFraction,
                           int threads = 0);

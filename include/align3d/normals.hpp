@@ -42,6 +42,14 @@ NormalResult estimate_normals(PointCloud& cloud, const NormalSettings& settings 
 // Lifetime: keeps references to `cloud` and `tree` (which must index cloud.positions), which must
 // outlive the cache unchanged. Thread-safety: require() runs in parallel itself and must not be
 // called concurrently; the const accessors may be read from any thread between calls.
+// Where the sensor of a one-sided range scan was, estimated from the scan alone (its normals, of
+// either sign): a range scan is one side of its object, seen along the axis its normals face most
+// (the principal axis of Σ n·nᵀ), from the side its surface bulges to (objects are convex on the
+// whole: normals turned that way point away from the centroid on average); placed two `extent`s
+// from the centroid. Over every m-th point, at most ~2000. For a closed surface the answer is a
+// point outside it with no meaning of its own.
+Eigen::Vector3d estimated_viewpoint(const PointCloud& cloud, double extent);
+
 class NormalCache {
  public:
   NormalCache(const PointCloud& cloud, const KdTree& tree, const NormalSettings& settings = {});

@@ -62,9 +62,9 @@ void apply_depth_range(const std::string& text, FindSettings& s) {
 
 void print_summary(std::ostream& out, const FindOptions& o, const FindResult& r) {
   out << "found " << r.instances.size() << " instance(s) of " << o.model << " in " << o.scene
-      << " (model diameter " << std::setprecision(4) << r.model_diameter << ", symmetry "
-      << r.symmetry.name() << "; " << r.hypotheses << " hypotheses, " << std::setprecision(3)
-      << r.total_ms << " ms)\n";
+      << " (model diameter " << std::setprecision(4) << r.model_diameter
+      << (r.model_side.partial ? ", partial: one side" : "") << ", symmetry " << r.symmetry.name()
+      << "; " << r.hypotheses << " hypotheses, " << std::setprecision(3) << r.total_ms << " ms)\n";
   for (std::size_t k = 0; k < r.instances.size(); ++k) {
     const FoundInstance& f = r.instances[k];
     const Eigen::Vector3d t = f.T_scene_model.translation();
@@ -121,7 +121,9 @@ Command add_find(CLI::App& app, Streams io) {
       "is found.");
   sub->add_option("MODEL", o->model,
                   "The part: its CAD mesh (.stl .obj .off .ply with faces .step .iges; sampled "
-                  "evenly by area), a cloud with outward normals, or a description saved by "
+                  "evenly by area), a cloud with outward normals, a teach-in scan of the part "
+                  "(a cloud without normals, or a mesh of one side: partial, verified only at "
+                  "poses that show the scanned side to the camera), or a description saved by "
                   "`align3d ppf-model --find` (.ppf)")
       ->required();
   sub->add_option("SCENE", o->scene,

@@ -25,7 +25,6 @@ constexpr double kMinSeenShare = 0.02;
 // lies under the statuette, 0.25-0.51 (their estimated sensors 0.02-0.11).
 constexpr double kMaxHiddenShare = 0.2;
 constexpr double kHiddenSpacings = 3.0;
-constexpr double kSensorDistance = 2.0;  // extents from the centroid
 constexpr std::size_t kSensorSamples = 2000;
 // free_space_slack. Seen from an estimated sensor, right poses of the Stanford dragon's neighbours
 // put up to 2 % of a scan in front of what the other saw (the estimate is off by up to ~30°);
@@ -61,7 +60,7 @@ std::vector<ScanData> prepare_scans(const std::vector<PointCloud>& scans,
       return;
     }
     d.sensor = SensorSource::kEstimated;
-    d.viewpoint = estimated_sensor(d.cloud, d.scale.extent);
+    d.viewpoint = estimated_viewpoint(d.cloud, d.scale.extent);
     ns.viewpoint = d.viewpoint;
     estimate_normals(d.cloud, *d.tree, ns);
   });
@@ -79,27 +78,6 @@ double hidden_share(const ScanData& scan) {
     hidden += !key || depth > map.nearest.at(*key) + margin;
   }
   return tested ? static_cast<double>(hidden) / static_cast<double>(tested) : 0.0;
-}
-
-Eigen::Vector3d estimated_sensor(const PointCloud& cloud, double extent) {
-  const std::size_t m = every_mth_step(cloud.size(), kSensorSamples);
-  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
-  Eigen::Matrix3d facing = Eigen::Matrix3d::Zero();
-  std::size_t count = 0;
-  for (std::size_t i = 0; i < cloud.size(); i += m, ++count) {
-    centroid += cloud.positions[i];
-    facing.noalias() += cloud.normals[i] * cloud.normals[i].transpose();
-  }
-  centroid /= static_cast<double>(std::max<std::size_t>(count, 1));
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(facing);
-  Eigen::Vector3d axis = eig.eigenvectors().col(2);
-  double bulge = 0;  // Σ (p − c)·n with each n turned towards +axis
-  for (std::size_t i = 0; i < cloud.size(); i += m) {
-    const Eigen::Vector3d& n = cloud.normals[i];
-    bulge += (cloud.positions[i] - centroid).dot(n.dot(axis) < 0 ? Eigen::Vector3d(-n) : n);
-  }
-  if (bulge < 0) axis = -axis;
-  return centroid + kSensorDistance * std::max(extent, 0.0) * axis;
 }
 
 double largest_extent(const std::vector<ScanData>& scans) {

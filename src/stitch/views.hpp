@@ -30,8 +30,8 @@ struct ScanData {
 
 // Checks each scan (DataError "scan k" when one cannot be registered), places its sensor (the
 // viewpoint given; else the frame's origin unless hidden_share says the scan was not seen from
-// there; else estimated_sensor), estimates its normals towards it and measures its scale.
-// `viewpoints`: one per scan, or empty (none known).
+// there; else estimated_viewpoint, normals.hpp), estimates its normals towards it and measures its
+// scale. `viewpoints`: one per scan, or empty (none known).
 std::vector<ScanData> prepare_scans(const std::vector<PointCloud>& scans,
                                     const std::vector<std::optional<Eigen::Vector3d>>& viewpoints,
                                     int threads);
@@ -41,12 +41,6 @@ std::vector<ScanData> prepare_scans(const std::vector<PointCloud>& scans,
 // depth_map). Near 0 for the sensor that made the scan; large for a point under or inside the
 // object (a turntable scanner's coordinates). Over every m-th point, at most ~2000.
 double hidden_share(const ScanData& scan);
-
-// Where the sensor of a range scan was, estimated from the scan alone (normals of either sign): a
-// range scan is one side of its object, seen along the axis its normals face most (the principal
-// axis of Σ n·nᵀ), from the side its surface bulges to (objects are convex on the whole: normals
-// turned that way point away from the centroid on average); placed two extents from the centroid.
-Eigen::Vector3d estimated_sensor(const PointCloud& cloud, double extent);
 
 // The object's size: the largest robust extent of a scan (cloud_stats.hpp).
 double largest_extent(const std::vector<ScanData>& scans);
