@@ -192,6 +192,7 @@ struct ModelView {
   std::vector<float> z;
   std::vector<std::int32_t> owner;
   std::vector<std::size_t> visible;
+  std::size_t outside = 0;          // points facing the camera beyond the image's border
   std::vector<Eigen::Vector2i> uv;  // per model point; meaningful for those projected
   std::size_t at(int u, int v) const {
     return static_cast<std::size_t>(v - lo.y()) * size.x() + (u - lo.x());
@@ -210,7 +211,10 @@ ModelView view_model(const std::vector<Eigen::Vector3d>& p, const std::vector<Ei
     if (!(p[i].z() > 0) || n[i].dot(-p[i].normalized()) < kMinFacing) continue;
     const Eigen::Vector2d q = image.project(p[i]);
     const long u = std::lround(q.x()), v = std::lround(q.y());
-    if (u < 0 || v < 0 || u >= image.width || v >= image.height) continue;
+    if (u < 0 || v < 0 || u >= image.width || v >= image.height) {
+      ++view.outside;
+      continue;
+    }
     view.uv[i] = Eigen::Vector2i(static_cast<int>(u), static_cast<int>(v));
     box.extend(view.uv[i]);
     view.visible.push_back(i);
@@ -495,6 +499,11 @@ Evidence verify(const PpfModel& model, const KdTree& model_tree, const Prepared&
       occluders.push_back(nearest);
     }
   }
+  // Beyond the image's border the camera sees nothing of the part: hidden from it, as by an
+  // occluder (a pose mostly outside the image is too little visible to verify: a face matched into
+  // a wall that leaves the image, whose outline there cannot be checked).
+  ev.visible += view.outside;
+  ev.occluded += view.outside;
   if (!view.visible.empty()) ev.continuation = outline_continuation(view, p, prep, explain, margin);
   const std::vector<FlatFace> faces = flat_faces(n, explained_model, ev.pixels, prep, explain);
   const auto footprint = static_cast<std::size_t>(

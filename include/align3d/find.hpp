@@ -23,7 +23,8 @@
 //      plane (the floor) lies in front, or the surface one of its own flat faces lies on (a side
 //      fitted into the bin's wall), so the part would be inside it; occluded: something else lies
 //      in front (a scene point on the part's own surface at the pose means the part hides that
-//      point itself: not counted as visible); missing: no return. Outline continuation: the share
+//      point itself: not counted as visible), or the point lies beyond the image's border;
+//      missing: no return. Outline continuation: the share
 //      of the ring just outside the part's outline where the scene surface goes on without a depth
 //      edge (a face fitted into a box's top, the floor or a wall). Explained needs the scene's
 //      normal there within 45° of the model's, and the outline counts only where the part is
