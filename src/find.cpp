@@ -30,6 +30,10 @@ constexpr std::size_t kHypothesesPerPlace = 8;  // ppf_hypotheses' max_per_place
 constexpr double kPlaneShare = 0.2;             // a plane with this share of the scene is the floor
 constexpr int kMaxPlanes = 3;         // planes removed at most (ground, bin floor, a table)
 constexpr double kPlaneVoxels = 0.5;  // RANSAC's inlier distance for the floor
+// A plane is a floor, a table or a wall only if its inliers span more than this many model
+// diameters: one of about the part's size may be the part's own face (a box's side seen square
+// on, which a Kinect frame's second plane was), and removing it takes the part out of the voting.
+constexpr double kPlaneDiameters = 1.5;
 constexpr std::size_t kPlaneScorePoints = 2000;  // RANSAC counts its candidates on these
 constexpr double kExplainVoxels = 0.75;          // a scene point this near explains a model point
 constexpr double kFreeSpaceVoxels = 1.5;  // scene this far behind a model point: seen through it
@@ -75,9 +79,10 @@ struct Prepared {
 };
 
 // Removes the dominant plane from `kept` (indices into prep.points) and from `sample` (their
-// downsampling, which RANSAC searches) when it holds kPlaneShare of the sample.
+// downsampling, which RANSAC searches) when it holds kPlaneShare of the sample and spans more than
+// kPlaneDiameters model diameters.
 bool remove_floor(Prepared& prep, std::vector<std::size_t>& kept, PointCloud& sample, double voxel,
-                  std::uint64_t seed) {
+                  double diameter, std::uint64_t seed) {
   RansacPlaneSettings rs;
   rs.threshold = kPlaneVoxels * voxel;
   rs.seed = seed;
@@ -90,6 +95,9 @@ bool remove_floor(Prepared& prep, std::vector<std::size_t>& kept, PointCloud& sa
   }
   if (static_cast<double>(plane.inliers.size()) < kPlaneShare * static_cast<double>(sample.size()))
     return false;
+  Eigen::AlignedBox3d span;
+  for (std::size_t i : plane.inliers) span.extend(sample.positions[i]);
+  if (span.diagonal().norm() <= kPlaneDiameters * diameter) return false;
   // The band removed: 3 σ of the raw points near the plane (a depth camera's noise is larger
   // than the downsampled sample's), at least RANSAC's distance.
   double sq_sum = 0;
@@ -150,7 +158,7 @@ Prepared prepare_scene(const FindScene& scene, const PpfModel& model, const Find
     for (std::size_t i : kept) sample.positions.push_back(prep.points[i]);
     sample = voxel_downsample(sample, model.voxel / 2);
     for (int round = 0; round < kMaxPlanes; ++round)
-      if (!remove_floor(prep, kept, sample, model.voxel, s.seed)) break;
+      if (!remove_floor(prep, kept, sample, model.voxel, model.diameter, s.seed)) break;
   }
   PointCloud rest;
   rest.positions.reserve(kept.size());

@@ -8,7 +8,8 @@
 //   2. The scene, in the camera's frame (its viewpoint): points outside the depth range are
 //      dropped, and the dominant plane removed for voting (not for verification), again while
 //      one holds a fifth of what is left (a camera above a bin sees the ground and the bin's
-//      floor). The rest is downsampled with the model's voxel; normals are turned toward the
+//      floor) and spans more than 1.5 model diameters (a plane of the part's size may be its own
+//      face). The rest is downsampled with the model's voxel; normals are turned toward the
 //      camera, the side from which the outward normals of the visible model surface point too.
 //   3. Hypotheses: PPF voting (coarse/ppf.hpp, ppf_hypotheses) with neighbour-bin lookups, one
 //      vote per model-scene pair and several peaks per scene reference point, clustered poses:
