@@ -111,7 +111,7 @@ TEST(FindScene, OrganizedRangeImageResectsAWrongOrientation) {
   const RangeImage kept = range(truth);
   EXPECT_FALSE(kept.orientation_from_rays);
   EXPECT_LT(kept.given_orientation_error_deg, 1e-6);
-  for (const Eigen::Isometry3d wrong :
+  for (const Eigen::Isometry3d& wrong :
        {Eigen::Isometry3d(truth * Eigen::AngleAxisd(std::numbers::pi, Eigen::Vector3d::UnitX())),
         Eigen::Isometry3d(truth * Eigen::AngleAxisd(std::numbers::pi / 6,
                                                     Eigen::Vector3d(1, 1, 0).normalized()))}) {
