@@ -37,10 +37,13 @@ constexpr double kPlaneDiameters = 1.5;
 constexpr std::size_t kPlaneScorePoints = 2000;  // RANSAC counts its candidates on these
 constexpr double kExplainVoxels = 0.75;          // a scene point this near explains a model point
 constexpr double kFreeSpaceVoxels = 1.5;  // scene this far behind a model point: seen through it
-constexpr double kRefineNormalDeg = 45;   // scene and model normals of a refined pair
-constexpr double kVerifyNormalDeg = 45;   // scene and model normals of an explained point
-constexpr double kMinFacing = 0.26;       // cos 75°: steeper surfaces return nothing (sensors)
-constexpr double kSymmetryVoxels = 0.1;   // mean misfit of a turn that counts as a symmetry
+// Or, where the sensor's noise at the part's depth is larger (RangeImage::depth_sigma), this many
+// of its σ.
+constexpr double kExplainSigmas = 2, kFreeSpaceSigmas = 4;
+constexpr double kRefineNormalDeg = 45;  // scene and model normals of a refined pair
+constexpr double kVerifyNormalDeg = 45;  // scene and model normals of an explained point
+constexpr double kMinFacing = 0.26;      // cos 75°: steeper surfaces return nothing (sensors)
+constexpr double kSymmetryVoxels = 0.1;  // mean misfit of a turn that counts as a symmetry
 // The disc each model point covers in its view: wide enough to close the gaps between the points
 // (a voxel apart) so the outline is the part's, not each point's.
 constexpr double kSplatVoxels = 0.75;
@@ -53,6 +56,12 @@ constexpr double kFlatExplains = 1.0 / 3;
 constexpr double kOverhangShare = 0.5;
 constexpr double kFaceDeg = 20;      // any_face_overhangs: normals of one face
 constexpr double kFaceShare = 0.25;  // of the explained points: a face worth testing
+
+// The explain distance at a depth: kExplainVoxels voxels, or kExplainSigmas σ of the depth noise
+// there where that is more.
+double explain_distance(double voxel, const RangeImage& image, double depth) {
+  return std::max(kExplainVoxels * voxel, kExplainSigmas * image.depth_sigma(depth));
+}
 
 void check_settings(const FindSettings& s) {
   if (s.max_instances < 0) throw std::invalid_argument("find: max_instances must be >= 0");
@@ -219,7 +228,8 @@ ModelView view_model(const std::vector<Eigen::Vector3d>& p, const std::vector<Ei
     if (!(p[i].z() > 0) || n[i].dot(-p[i].normalized()) < kMinFacing) continue;
     const Eigen::Vector2d q = image.project(p[i]);
     const long u = std::lround(q.x()), v = std::lround(q.y());
-    if (u < 0 || v < 0 || u >= image.width || v >= image.height) {
+    if (u < 0 || v < 0 || u >= image.width || v >= image.height ||
+        !image.in_field(static_cast<int>(u), static_cast<int>(v))) {
       ++view.outside;
       continue;
     }
@@ -431,8 +441,7 @@ bool surface_overhang(const ModelView& view, std::size_t footprint, const FlatFa
 void reclassify_occluded(const PpfModel& model, const KdTree& model_tree, const Prepared& prep,
                          const Eigen::Isometry3d& T_model_camera,
                          const std::vector<FlatFace>& faces,
-                         const std::vector<std::size_t>& occluders, Evidence& ev) {
-  const double explain = kExplainVoxels * model.voxel;
+                         const std::vector<std::size_t>& occluders, double explain, Evidence& ev) {
   for (std::size_t q : occluders) {
     const Eigen::Vector3d& x = prep.points[q];
     if (on_surface(model, model_tree, T_model_camera * x, explain)) {
@@ -449,8 +458,9 @@ void reclassify_occluded(const PpfModel& model, const KdTree& model_tree, const 
 Evidence verify(const PpfModel& model, const KdTree& model_tree, const Prepared& prep,
                 const ModelSide& side, const Eigen::Isometry3d& T_camera_model) {
   Evidence ev;
+  const Eigen::Vector3d centre = T_camera_model * centroid(model.points);
   // A partial model turned so that the camera would see its unscanned side: nothing to verify.
-  const Eigen::Vector3d to_camera = -(T_camera_model * centroid(model.points)).normalized();
+  const Eigen::Vector3d to_camera = -centre.normalized();
   if (side.partial && (T_camera_model.linear() * side.seen_from).dot(to_camera) <
                           std::cos(kFindMaxUnseenDeg * std::numbers::pi / 180)) {
     ev.unseen_side = true;
@@ -458,14 +468,16 @@ Evidence verify(const PpfModel& model, const KdTree& model_tree, const Prepared&
   }
   const RangeImage& image = prep.image;
   const double voxel = model.voxel;
-  const double explain = kExplainVoxels * voxel, free = kFreeSpaceVoxels * voxel;
+  const double depth = centre.z();
+  const double explain = explain_distance(voxel, image, depth);
+  const double free =
+      std::max(kFreeSpaceVoxels * voxel, kFreeSpaceSigmas * image.depth_sigma(depth));
   std::vector<Eigen::Vector3d> p(model.points.size()), n(model.points.size());
   for (std::size_t i = 0; i < p.size(); ++i) {
     p[i] = T_camera_model * model.points.positions[i];
     n[i] = T_camera_model.linear() * model.points.normals[i];
   }
   // The outline ring: half a voxel in pixels at the model's depth, at least 2.
-  const double depth = (T_camera_model * centroid(model.points)).z();
   const int margin =
       depth > 0 ? std::max(2, static_cast<int>(std::lround(0.5 * voxel * image.fx / depth))) : 2;
   ModelView view = view_model(p, n, image, voxel, margin);
@@ -512,14 +524,24 @@ Evidence verify(const PpfModel& model, const KdTree& model_tree, const Prepared&
   // a wall that leaves the image, whose outline there cannot be checked).
   ev.visible += view.outside;
   ev.occluded += view.outside;
-  if (!view.visible.empty()) ev.continuation = outline_continuation(view, p, prep, explain, margin);
+  // The outline's depth edges are the part's geometry: a step of the voxel-based distance, not
+  // widened by the noise (a thin part's edge would pass for a continuing surface).
+  if (!view.visible.empty())
+    ev.continuation = outline_continuation(view, p, prep, kExplainVoxels * voxel, margin);
   const std::vector<FlatFace> faces = flat_faces(n, explained_model, ev.pixels, prep, explain);
   const auto footprint = static_cast<std::size_t>(
       std::count_if(view.owner.begin(), view.owner.end(), [](std::int32_t o) { return o >= 0; }));
   ev.larger_surface = std::any_of(faces.begin(), faces.end(), [&](const FlatFace& f) {
     return surface_overhang(view, footprint, f, prep, explain, model.diameter);
   });
-  reclassify_occluded(model, model_tree, prep, T_camera_model.inverse(), faces, occluders, ev);
+  // Explained mostly by a removed plane's points (the floor, a table, a wall): matched into it.
+  const auto on_plane = static_cast<std::size_t>(
+      std::count_if(ev.pixels.begin(), ev.pixels.end(), [&](std::uint32_t px) {
+        return prep.on_plane[static_cast<std::size_t>(image.point[px])] != 0;
+      }));
+  if (2 * on_plane > ev.pixels.size()) ev.larger_surface = true;
+  reclassify_occluded(model, model_tree, prep, T_camera_model.inverse(), faces, occluders, explain,
+                      ev);
   return ev;
 }
 
@@ -702,7 +724,8 @@ std::vector<std::uint32_t> instance_points(const PpfModel& model, const KdTree& 
   std::vector<std::uint32_t> out;
   if (box.isEmpty()) return out;
   const Eigen::Isometry3d T_model_camera = T_camera_model.inverse();
-  const double explain = kExplainVoxels * model.voxel;
+  const double explain =
+      explain_distance(model.voxel, image, (T_camera_model * centroid(model.points)).z());
   const int u0 = std::max(0, static_cast<int>(std::floor(box.min().x())) - 2);
   const int v0 = std::max(0, static_cast<int>(std::floor(box.min().y())) - 2);
   const int u1 = std::min(image.width - 1, static_cast<int>(std::ceil(box.max().x())) + 2);
@@ -738,7 +761,8 @@ Eigen::Isometry3d final_refine(const PpfModel& model, const KdTree& model_tree,
   s.method = cost.method;
   s.kernel = cost.kernel.value_or(RobustKernel::kNone);
   s.kernel_scale = cost.kernel_scale;
-  s.rejection = RejectionRule::max_distance(kExplainVoxels * model.voxel);
+  s.rejection = RejectionRule::max_distance(
+      explain_distance(model.voxel, prep.image, (T_camera_model * centroid(model.points)).z()));
   s.termination.max_iterations = 30;
   s.threads = 1;
   const IcpResult r = icp(source, model.points, model_tree, T_camera_model.inverse(), s);

@@ -41,6 +41,67 @@ void splat(RangeImage& image, std::size_t at, double z, std::size_t i) {
   }
 }
 
+// The sensor's field of an organized image: per row and per column its first and last pixel
+// with depth (image.hpp, in_field).
+void set_field(RangeImage& image) {
+  const auto w = static_cast<std::size_t>(image.width), h = static_cast<std::size_t>(image.height);
+  image.row_first.assign(h, image.width), image.row_last.assign(h, -1);
+  image.col_first.assign(w, image.height), image.col_last.assign(w, -1);
+  for (std::size_t v = 0; v < h; ++v)
+    for (std::size_t u = 0; u < w; ++u) {
+      if (image.point[v * w + u] < 0) continue;
+      const int iu = static_cast<int>(u), iv = static_cast<int>(v);
+      image.row_first[v] = std::min(image.row_first[v], iu);
+      image.row_last[v] = std::max(image.row_last[v], iu);
+      image.col_first[u] = std::min(image.col_first[u], iv);
+      image.col_last[u] = std::max(image.col_last[u], iv);
+    }
+}
+
+// The depth noise of an organized image by depth (image.hpp, noise_depth / noise_inverse). On a
+// grid of 5 x 5 windows (every kNoiseStride pixels) whose pixels all have depth, the residual of a
+// plane fitted to the inverse depth over (u, v) (a plane in space is one in 1/z; the window's
+// offsets are symmetric, so the fit is three sums); its σ (22 degrees of freedom) per window; the
+// windows sorted by depth into kNoiseBins bins of equal count, and each bin's median σ (windows
+// across a depth edge or a corner are a minority: the median ignores them).
+constexpr int kNoiseStride = 4;
+constexpr std::size_t kNoiseBins = 8, kNoiseMinWindows = 50;  // windows a bin, at least
+void estimate_depth_noise(RangeImage& image) {
+  std::vector<std::pair<double, double>> windows;  // (z, σ of 1/z)
+  for (int v = 2; v + 2 < image.height; v += kNoiseStride)
+    for (int u = 2; u + 2 < image.width; u += kNoiseStride) {
+      double sum = 0, su = 0, sv = 0, sq = 0;
+      bool full = true;
+      for (int dv = -2; dv <= 2 && full; ++dv)
+        for (int du = -2; du <= 2; ++du) {
+          const float z = image.depth[image.pixel(u + du, v + dv)];
+          if (!(z > 0)) {
+            full = false;
+            break;
+          }
+          const double w = 1.0 / z;
+          sum += w, su += du * w, sv += dv * w, sq += w * w;
+        }
+      if (!full) continue;
+      // Σ du² = Σ dv² = 50 over the window; the fit's sum of squares is sum²/25 + su²/50 + sv²/50.
+      const double rss = std::max(0.0, sq - sum * sum / 25 - (su * su + sv * sv) / 50);
+      windows.emplace_back(25 / sum, std::sqrt(rss / 22));
+    }
+  if (windows.size() < kNoiseBins * kNoiseMinWindows) return;
+  std::sort(windows.begin(), windows.end());
+  for (std::size_t b = 0; b < kNoiseBins; ++b) {
+    const auto first =
+        windows.begin() + static_cast<std::ptrdiff_t>(b * windows.size() / kNoiseBins);
+    const auto last =
+        windows.begin() + static_cast<std::ptrdiff_t>((b + 1) * windows.size() / kNoiseBins);
+    std::vector<double> sigmas;
+    for (auto it = first; it != last; ++it) sigmas.push_back(it->second);
+    std::nth_element(sigmas.begin(), sigmas.begin() + sigmas.size() / 2, sigmas.end());
+    image.noise_depth.push_back((first + (last - first) / 2)->first);
+    image.noise_inverse.push_back(sigmas[sigmas.size() / 2]);
+  }
+}
+
 // Least squares of coordinate c = centre + f·ratio over the samples: {f, centre, rms residual}.
 struct LineFit {
   double f = 0, centre = 0, rms = 0;
@@ -127,11 +188,12 @@ RangeImage organized_range_image(const PointCloud& cloud, const std::vector<std:
   // is often a placeholder: PCL's own Kinect frames carry a half turn about x).
   Eigen::Isometry3d T_cloud_camera = T_given;
   double disagreement = 0;
+  bool from_rays = false;
   if (const auto R = resected_rotation(cloud, pixels, width, height, T_given.translation())) {
     const Eigen::Matrix3d rays_camera = R->transpose();  // camera → cloud
     disagreement = Eigen::AngleAxisd(T_given.linear().transpose() * rays_camera).angle();
-    if (disagreement > kMaxOrientationDeg * std::numbers::pi / 180)
-      T_cloud_camera.linear() = rays_camera;
+    from_rays = disagreement > kMaxOrientationDeg * std::numbers::pi / 180;
+    if (from_rays) T_cloud_camera.linear() = rays_camera;
   }
   const Eigen::Isometry3d T_camera_cloud = T_cloud_camera.inverse();
   std::vector<Eigen::Vector2d> us, vs;  // (x/z, u), (y/z, v)
@@ -149,7 +211,7 @@ RangeImage organized_range_image(const PointCloud& cloud, const std::vector<std:
   image.T_cloud_camera = T_cloud_camera;
   image.organized = true;
   image.given_orientation_error_deg = disagreement * 180 / std::numbers::pi;
-  image.orientation_from_rays = disagreement > kMaxOrientationDeg * std::numbers::pi / 180;
+  image.orientation_from_rays = from_rays;
   image.fx = fu.f, image.cx = fu.centre, image.fy = fv.f, image.cy = fv.centre;
   image.fit_rms_px = std::hypot(fu.rms, fv.rms);
   if (!(image.fx > 0 && image.fy > 0) || !(image.fit_rms_px <= kMaxFitResidualPx))
@@ -160,6 +222,8 @@ RangeImage organized_range_image(const PointCloud& cloud, const std::vector<std:
     const double z = (T_camera_cloud * cloud.positions[i]).z();
     if (z > 0) splat(image, pixels[i], z, i);
   }
+  set_field(image);
+  estimate_depth_noise(image);
   return image;
 }
 
@@ -222,6 +286,22 @@ RangeImage projected_range_image(const PointCloud& cloud, const Eigen::Isometry3
     splat(image, image.pixel(static_cast<int>(u), static_cast<int>(v)), p.z(), i);
   }
   return image;
+}
+
+double RangeImage::depth_sigma(double z) const {
+  if (noise_depth.empty()) return 0;
+  const auto hi = std::lower_bound(noise_depth.begin(), noise_depth.end(), z);
+  double inverse = 0;
+  if (hi == noise_depth.begin()) {
+    inverse = noise_inverse.front();
+  } else if (hi == noise_depth.end()) {
+    inverse = noise_inverse.back();
+  } else {
+    const auto k = static_cast<std::size_t>(hi - noise_depth.begin());
+    const double t = (z - noise_depth[k - 1]) / (noise_depth[k] - noise_depth[k - 1]);
+    inverse = noise_inverse[k - 1] + t * (noise_inverse[k] - noise_inverse[k - 1]);
+  }
+  return z * z * inverse;
 }
 
 }  // namespace align3d

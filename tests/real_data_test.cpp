@@ -138,41 +138,92 @@ TEST(RealScans, DragonScansWithoutSensorPositionsStitch) {
   EXPECT_TRUE(r.warnings.empty()) << warning_lines(r.warnings);
 }
 
-// A part taught from a scan (issue 57): the smaller box of PCL's first Kinect frame (two boxes on
-// a table, 640 x 480, VIEWPOINT a half turn off the camera), cut out of the frame (its pixels in
-// a window around it, more than 15 mm above the table's plane) and moved by a known pose, no
-// normals: find() takes it for a partial model and finds the box in the frame, once, at the pose
-// the cut undoes. The other box, the table and the room are the distractors.
-TEST(RealScans, KinectBoxTaughtFromTheFrameIsFoundOnce) {
-  const fs::path frame = kKinect / "frame_20121214T142255.814212.pcd";
-  ASSERT_TRUE(fs::is_regular_file(frame))
-      << "the real Kinect frames are missing: expected " << frame
-      << " (../shared/data/real/ beside the repository, or -DALIGN3D_REAL_DATA_DIR=<dir>)";
-  const FindScene scene = read_find_scene(frame);
-  const Plane table = ransac_plane(scene.cloud.positions, {0.01, 500, 1, 20000}).plane;
+// A part taught from a scan (issue 57): a box of PCL's first Kinect frame (two boxes on a table,
+// 640 x 480, VIEWPOINT a half turn off the camera), cut out of the frame (its pixels in a window
+// around it, more than 15 mm above the table's plane) and moved by a known pose, no normals.
+struct TaughtBox {
+  PointCloud points;        // moved
+  Eigen::Isometry3d truth;  // in frame 0: scene ≈ truth · model
+};
+TaughtBox taught_box(const FindScene& frame0, int u0, int u1, int v0, int v1) {
+  const Plane table = ransac_plane(frame0.cloud.positions, {0.01, 500, 1, 20000}).plane;
   const double camera_side = table.signed_distance(Eigen::Vector3d::Zero()) > 0 ? 1 : -1;
-  PointCloud taught;
-  for (std::size_t i = 0; i < scene.cloud.size(); ++i) {
-    const std::uint32_t u = scene.pixels[i] % 640, v = scene.pixels[i] / 640;
-    if (u >= 382 && u < 520 && v >= 160 && v < 330 &&
-        camera_side * table.signed_distance(scene.cloud.positions[i]) > 0.015)
-      taught.positions.push_back(scene.cloud.positions[i]);
+  TaughtBox box;
+  for (std::size_t i = 0; i < frame0.cloud.size(); ++i) {
+    const auto u = static_cast<int>(frame0.pixels[i] % 640),
+               v = static_cast<int>(frame0.pixels[i] / 640);
+    if (u >= u0 && u < u1 && v >= v0 && v < v1 &&
+        camera_side * table.signed_distance(frame0.cloud.positions[i]) > 0.015)
+      box.points.positions.push_back(frame0.cloud.positions[i]);
   }
-  ASSERT_GT(taught.size(), 10000u);
   const Eigen::Isometry3d moved = Eigen::Translation3d(0.5, -0.2, 0.3) *
                                   Eigen::AngleAxisd(0.7, Eigen::Vector3d(0.3, 1, 0.2).normalized());
-  for (Eigen::Vector3d& p : taught.positions) p = moved * p;
-  const PpfModel model = build_find_model(taught, kFindVoxelFraction, 2);
+  for (Eigen::Vector3d& p : box.points.positions) p = moved * p;
+  box.truth = moved.inverse();
+  return box;
+}
+
+const char* const kKinectFrames[] = {"frame_20121214T142255.814212.pcd",
+                                     "frame_20121214T142256.068683.pcd",
+                                     "frame_20121214T142256.332395.pcd"};
+
+::testing::AssertionResult kinect_present() {
+  if (fs::is_regular_file(kKinect / kKinectFrames[0])) return ::testing::AssertionSuccess();
+  return ::testing::AssertionFailure()
+         << "the real Kinect frames are missing: expected them in " << kKinect
+         << " (../shared/data/real/ beside the repository, or -DALIGN3D_REAL_DATA_DIR=<dir>)";
+}
+
+// The smaller box: find() takes it for a partial model and finds it once in frame 0, at the pose
+// the cut undoes, and once in each later frame, on the box (the scene moves between frames: no
+// exact truth there; the box stays within 0.05 m of where it was). The other box, the table and
+// the room are the distractors; before the sensor's field (RangeImage::in_field) a face matched
+// into the Kinect's blind border band of frame 1 was reported too.
+TEST(RealScans, KinectBoxTaughtFromTheFrameIsFoundOnce) {
+  ASSERT_TRUE(kinect_present());
+  const FindScene frame0 = read_find_scene(kKinect / kKinectFrames[0]);
+  const TaughtBox box = taught_box(frame0, 382, 520, 160, 330);
+  ASSERT_GT(box.points.size(), 10000u);
+  const PpfModel model = build_find_model(box.points, kFindVoxelFraction, 2);
+  const Eigen::Vector3d c = centroid(box.points);
   FindSettings s;
   s.threads = 2;
-  const FindResult r = find(model, scene, s);
-  EXPECT_TRUE(r.model_side.partial);
-  EXPECT_TRUE(r.image.orientation_from_rays);
-  ASSERT_EQ(r.instances.size(), 1u);
-  const Eigen::Isometry3d truth = moved.inverse();  // scene ≈ T·model
-  const Eigen::Vector3d c = centroid(taught);
-  EXPECT_LT(test::rotation_error_deg(r.instances[0].T_scene_model, truth), 2.0);
-  EXPECT_LT((r.instances[0].T_scene_model * c - truth * c).norm(), 0.005);  // metres
+  for (int k = 0; k < 3; ++k) {
+    SCOPED_TRACE(kKinectFrames[k]);
+    const FindResult r =
+        find(model, k == 0 ? frame0 : read_find_scene(kKinect / kKinectFrames[k]), s);
+    EXPECT_TRUE(r.model_side.partial);
+    EXPECT_TRUE(r.image.orientation_from_rays);
+    ASSERT_EQ(r.instances.size(), 1u);
+    const Eigen::Isometry3d& T = r.instances[0].T_scene_model;
+    if (k == 0) {
+      EXPECT_LT(test::rotation_error_deg(T, box.truth), 2.0);
+      EXPECT_LT((T * c - box.truth * c).norm(), 0.005);  // metres
+    } else {
+      EXPECT_LT((T * c - box.truth * c).norm(), 0.05);
+    }
+  }
+}
+
+// The larger box (its front face 0.45 m, nearly a plane): in frames 0 and 2 nothing off the box is
+// reported (frame 2 reported two faces matched into the room's walls where they leave the image or
+// its blind band). Its true pose is not found yet (it scores about 0.57, its outline continued by
+// the table where the teach-in was cut), nor is frame 1 free of a phantom (issue 57's note).
+TEST(RealScans, KinectLargerBoxIsNotReportedOffTheBox) {
+  ASSERT_TRUE(kinect_present());
+  const FindScene frame0 = read_find_scene(kKinect / kKinectFrames[0]);
+  const TaughtBox box = taught_box(frame0, 120, 380, 130, 330);
+  const PpfModel model = build_find_model(box.points, kFindVoxelFraction, 2);
+  const Eigen::Vector3d c = centroid(box.points);
+  FindSettings s;
+  s.threads = 2;
+  for (int k : {0, 2}) {
+    SCOPED_TRACE(kKinectFrames[k]);
+    const FindResult r =
+        find(model, k == 0 ? frame0 : read_find_scene(kKinect / kKinectFrames[k]), s);
+    for (const FoundInstance& f : r.instances)
+      EXPECT_LT((f.T_scene_model * c - box.truth * c).norm(), 0.05) << "score " << f.score;
+  }
 }
 
 }  // namespace

@@ -19,26 +19,31 @@
 //      model point whose normal agrees with theirs; a touching neighbour does not pull it).
 //   4. Verification against the depth image (range_image.hpp): the model points the camera would
 //      see at the pose (facing it, not hidden behind the part itself) are compared with the scene
-//      at their pixels. Explained: a scene point within a distance; seen through: the scene lies
-//      farther, so the hypothesised part would hide it (free-space violation), or a removed
+//      at their pixels. Explained: a scene point within a distance (0.75 voxel, or 2 σ of the
+//      depth noise measured from the image at the part's depth, RangeImage::depth_sigma, where
+//      that is more); seen through: the scene lies farther (1.5 voxel or 4 σ), so the
+//      hypothesised part would hide it (free-space violation), or a removed
 //      plane (the floor) lies in front, or the surface one of its own flat faces lies on (a side
 //      fitted into the bin's wall), so the part would be inside it; occluded: something else lies
 //      in front (a scene point on the part's own surface at the pose means the part hides that
-//      point itself: not counted as visible), or the point lies beyond the image's border;
-//      missing: no return. Outline continuation: the share
-//      of the ring just outside the part's outline where the scene surface goes on without a depth
-//      edge (a face fitted into a box's top, the floor or a wall). Explained needs the scene's
-//      normal there within 45° of the model's, and the outline counts only where the part is
-//      explained (a neighbour lying on it is no evidence). score = (explained − seen through) /
-//      (visible − missing − occluded) − continuation: what a part partly under its neighbours shows
-//      is judged as a whole part's; visible_fraction = 1 − occluded / (visible − missing). A pose
-//      scores −1 when it is less than 40 % visible, or when the scene points one of its faces
-//      explains (grouped by the model normal, within 20°; a face holding a quarter of the explained
-//      points) lie on one plane (RMS below a third of the explain distance) that, grown through
-//      the depth image, covers more than half as many pixels outside the part's outline as
-//      inside: a face of the part matched into a larger surface (a plate into the bin's wall,
-//      where the outline ring falls on the floor and cannot tell; face by face, so that an L
-//      fitted into two surfaces is tested too).
+//      point itself: not counted as visible), or the point lies beyond the image's border or
+//      outside the sensor's field (RangeImage::in_field: a depth camera's blind border band);
+//      missing: no return. Outline continuation: the share of the ring just outside the part's
+//      outline where the scene surface goes on without a depth edge (a face fitted into a box's
+//      top, the floor or a wall). Explained needs the scene's normal there within 45° of the
+//      model's, and the outline counts only where the part is explained (a neighbour lying on it is
+//      no evidence). score = (explained − seen through) / (visible − missing − occluded) −
+//      continuation: what a part partly under its neighbours shows is judged as a whole part's;
+//      visible_fraction = 1 − occluded / (visible − missing). A pose scores −1 when it is less than
+//      40 % visible, when it turns a partial model's unscanned side to the camera (ModelSide),
+//      when most of the scene points it explains lie on a removed plane (matched into the floor,
+//      a table or a wall), or when the scene points one of its faces explains (grouped by the
+//      model normal, within 20°; a face holding a quarter of the explained points) lie on one
+//      plane (RMS below a third of the explain distance) that, grown through the depth image,
+//      covers more than half as many pixels outside the part's outline as inside: a face of the
+//      part matched into a larger surface (a plate into the bin's wall, where the outline ring
+//      falls on the floor and cannot tell; face by face, so that an L fitted into two surfaces is
+//      tested too).
 //   5. Non-maximum suppression, best score first: each accepted instance claims the scene pixels
 //      of its surface; a later hypothesis is scored again on its explained pixels still free and
 //      dropped below min_score. So one part is reported once, whatever its symmetry. Each
@@ -47,7 +52,8 @@
 //      max_instances may be reported when the limit was reached). Poses of a symmetric part are
 //      reported in a canonical form (symmetry.hpp).
 //
-// Units: every distance default is a share of the model's diameter, so the same data in mm or m
+// Units: every distance default is a share of the model's diameter (or of the measured depth
+// noise, in the scene's units), so the same data in mm or m
 // give the same instances. The same inputs and settings give the same result at any thread count.
 #pragma once
 
@@ -123,10 +129,12 @@ FindScene read_find_scene(const std::filesystem::path& path);
 
 // Whether a model is one side of its part (partial: a teach-in scan, cloud or mesh) or its whole
 // surface. Its sensor is placed where a one-sided scan's would be (estimated_viewpoint,
-// normals.hpp); the model is partial when that sensor sees nearly all of it: at most
-// kFindMaxHiddenShare of its points lie more than 3 point spacings behind another of its points
-// in their direction (a closed part hides its far side: about half). `seen_from`: the unit
-// direction from the model's centroid toward that sensor, in the model's frame.
+// normals.hpp); of the model's points whose surface does not graze that sensor's line of sight,
+// the model is partial when at most kFindMaxHiddenShare lie more than 3 point spacings behind
+// another of its points in their direction and at most that share have normals facing away from
+// it (a closed part hides its far side, about half, or, a thin plate, faces away from the sensor
+// with half its outward normals). `seen_from`: the unit direction from the model's centroid
+// toward that sensor, in the model's frame.
 inline constexpr double kFindMaxHiddenShare = 0.2;
 // A partial model is verified only at poses that show its scanned side to the camera: `seen_from`
 // within this angle of the direction from the part to the camera (beyond it the camera would see
@@ -137,7 +145,7 @@ struct ModelSide {
   Eigen::Vector3d seen_from = Eigen::Vector3d::Zero();
   double hidden_share = 0;  // of the model's points, seen from the estimated sensor
 };
-// `model`: points with normals (of either sign).
+// `model`: points with outward normals (a model of build_find_model); not partial without them.
 ModelSide model_side(const PointCloud& model);
 
 struct FoundInstance {

@@ -34,14 +34,6 @@ NormalResult estimate_normals(PointCloud& cloud, const KdTree& tree,
                               const NormalSettings& settings = {});
 NormalResult estimate_normals(PointCloud& cloud, const NormalSettings& settings = {});
 
-// Normals estimated only where they are used. Point-to-plane ICP needs a target normal only at the
-// target points that receive a partner, often a fraction of the target (a partial scan of a larger
-// model: half of the generated parts scenes, three quarters of the chapter's model), so
-// refine() estimates them through this cache. Each normal has the bits estimate_normals
-// gives it, so the registration is the same as with every normal estimated first.
-// Lifetime: keeps references to `cloud` and `tree` (which must index cloud.positions), which must
-// outlive the cache unchanged. Thread-safety: require() runs in parallel itself and must not be
-// called concurrently; the const accessors may be read from any thread between calls.
 // Where the sensor of a one-sided range scan was, estimated from the scan alone (its normals, of
 // either sign): a range scan is one side of its object, seen along the axis its normals face most
 // (the principal axis of Σ n·nᵀ), from the side its surface bulges to (objects are convex on the
@@ -50,6 +42,14 @@ NormalResult estimate_normals(PointCloud& cloud, const NormalSettings& settings 
 // point outside it with no meaning of its own.
 Eigen::Vector3d estimated_viewpoint(const PointCloud& cloud, double extent);
 
+// Normals estimated only where they are used. Point-to-plane ICP needs a target normal only at the
+// target points that receive a partner, often a fraction of the target (a partial scan of a larger
+// model: half of the generated parts scenes, three quarters of the chapter's model), so
+// refine() estimates them through this cache. Each normal has the bits estimate_normals
+// gives it, so the registration is the same as with every normal estimated first.
+// Lifetime: keeps references to `cloud` and `tree` (which must index cloud.positions), which must
+// outlive the cache unchanged. Thread-safety: require() runs in parallel itself and must not be
+// called concurrently; the const accessors may be read from any thread between calls.
 class NormalCache {
  public:
   NormalCache(const PointCloud& cloud, const KdTree& tree, const NormalSettings& settings = {});

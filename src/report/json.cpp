@@ -114,6 +114,14 @@ nlohmann::json input_json(const InputInfo& in) {
   return j;
 }
 
+// An organized scene's depth noise (RangeImage::noise_depth): [depth, σ of the depth] per depth
+// bin, data units; empty when it was not measured.
+nlohmann::json depth_noise_json(const RangeImage& im) {
+  nlohmann::json out = nlohmann::json::array();
+  for (double z : im.noise_depth) out.push_back({z, im.depth_sigma(z)});
+  return out;
+}
+
 }  // namespace
 
 nlohmann::json to_json(const Eigen::Isometry3d& T) {
@@ -287,6 +295,7 @@ nlohmann::json find_report(const FindResult& r, const FindSettings& s, const Inp
             {"camera_pose", to_json(im.T_cloud_camera)},
             {"orientation_from_rays", im.orientation_from_rays},
             {"given_orientation_error_deg", im.given_orientation_error_deg},
+            {"depth_noise", depth_noise_json(im)},
             {"depth_dropped", r.depth_dropped},
             {"plane_points", r.plane_points},
             {"voting_points", r.voting_points}}},
