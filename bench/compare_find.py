@@ -5,6 +5,7 @@ scored the BOP way.
 
 Usage:
   bench/compare_find.py [--scenes 24] [--first-seed 100] [--cache DIR] [--systems align3d,open3d,pcl]
+      [--real]
       [--threads 2]
       [--json OUT] [--cli build/align3d] [--pcl-runner build-peers/pcl_find_run] [--peer-budget 20]
       [--open3d-args "--min-fitness F --max-tries N"] [--pcl-args "RUNNER OPTIONS"] (tuning)
@@ -16,6 +17,13 @@ sys.path or in the repository's .venv (scripts/build.sh installs it there). The 
 scripts/setup-peers.sh (python3-open3d; libpcl-dev for the PCL runner, built with
 `cmake -S bench/peers -B build-peers -G Ninja && cmake --build build-peers -j 1 --target
 pcl_find_run`). A system whose program is missing is skipped with a note.
+
+Real scenes (--real): the teach-in cases of PCL's Kinect frames (../shared/data/real/pcl-kinect,
+bench/real_data.py kinect_teach_in; Open3D needed to cut them): each of the two boxes of the first
+frame cut out of it (a pixel window, above the table), moved by a known pose, no normals, and found
+in each of the three frames (frame 0: the truth is the move; frames 1 and 2, where the scene
+moves: Open3D's ICP of the cut from frame 0's pose). The table then also gives false positives
+per scene. PCL's runner takes a mesh model and is skipped on them.
 
 Scenes (fixed seeds, generated once into --cache and reused; without --cache into a temporary
 folder removed at the end): scene i of N is
@@ -191,8 +199,17 @@ def import_align3d():
                  ".venv; or set PYTHONPATH to the site-packages that hold it)")
 
 
-def model_points(align3d, stl):
-    return np.asarray(align3d.read_mesh(stl).sample(MODEL_POINTS, seed=1).points, dtype=np.float64)
+def model_path(scene):
+    return os.path.join(scene["dir"], scene.get("model", "model.stl"))
+
+
+def model_points(align3d, path):
+    """ADD-S samples: MODEL_POINTS on a mesh's surface, or every k-th point of a cloud (a scan)."""
+    if path.endswith(".stl"):
+        return np.asarray(align3d.read_mesh(path).sample(MODEL_POINTS, seed=1).points,
+                          dtype=np.float64)
+    points = np.asarray(align3d.read_point_cloud(path).points, dtype=np.float64)
+    return points[::max(1, len(points) // MODEL_POINTS)]
 
 
 def nearest_rigid(T):
@@ -241,7 +258,7 @@ def run_process(cmd, timeout, env=None):
 
 def run_align3d(args, scene, work):
     report = os.path.join(work, f"{scene['name']}-align3d.json")
-    cmd = align3d_find_command(args.cli, os.path.join(scene["dir"], "model.stl"),
+    cmd = align3d_find_command(args.cli, model_path(scene),
                                os.path.join(scene["dir"], "scene.pcd"), report, args.threads)
     cmd += args.align3d_args.split()
     p, wall, err = run_process(cmd, args.align3d_timeout)
@@ -265,13 +282,16 @@ def run_peer(cmd, args, env=None):
 
 def run_open3d(args, scene, work):
     cmd = [sys.executable, os.path.abspath(__file__), "--open3d-runner",
-           os.path.join(scene["dir"], "model.stl"), os.path.join(scene["dir"], "scene.pcd"),
+           model_path(scene), os.path.join(scene["dir"], "scene.pcd"),
            "--threads", str(args.threads), "--budget", str(args.peer_budget)] + args.open3d_args.split()
     return run_peer(cmd, args, dict(os.environ, OMP_NUM_THREADS=str(args.threads)))
 
 
 def run_pcl(args, scene, work):
-    cmd = [args.pcl_runner, os.path.join(scene["dir"], "model.stl"),
+    if not model_path(scene).endswith(".stl"):
+        return {"status": "error", "error": "the PCL runner takes a mesh model (STL), not a scan",
+                "instances": [], "process_ms": 0.0, "command": []}
+    cmd = [args.pcl_runner, model_path(scene),
            os.path.join(scene["dir"], "scene.pcd"), "--method", "cg", "--threads",
            str(args.threads), "--budget", str(args.peer_budget)] + args.pcl_args.split()
     return run_peer(cmd, args)
@@ -343,15 +363,22 @@ def open3d_runner(model_path, scene_path, threads, budget, max_tries, min_fitnes
     omp = ctypes.CDLL("libgomp.so.1")  # the OpenMP runtime Debian's Open3D is linked with
     omp.omp_set_num_threads(threads)
     reg = o3d.pipelines.registration
-    mesh = o3d.io.read_triangle_mesh(model_path)
     cloud = o3d.io.read_point_cloud(scene_path, remove_nan_points=True, remove_infinite_points=True)
     o3d.utility.random.seed(1)
 
     t0 = time.perf_counter()
-    v = VOXEL_FRACTION * float(np.linalg.norm(mesh.get_max_bound() - mesh.get_min_bound()))
-    mesh.compute_triangle_normals()
-    model = mesh.sample_points_uniformly(20000, use_triangle_normal=True)
-    model_down = model.voxel_down_sample(v)
+    if model_path.endswith(".stl"):
+        mesh = o3d.io.read_triangle_mesh(model_path)
+        v = VOXEL_FRACTION * float(np.linalg.norm(mesh.get_max_bound() - mesh.get_min_bound()))
+        mesh.compute_triangle_normals()
+        model = mesh.sample_points_uniformly(20000, use_triangle_normal=True)
+        model_down = model.voxel_down_sample(v)
+    else:  # a teach-in scan: its points, normals estimated and oriented consistently
+        model = o3d.io.read_point_cloud(model_path)
+        v = VOXEL_FRACTION * float(np.linalg.norm(model.get_max_bound() - model.get_min_bound()))
+        model_down = model.voxel_down_sample(v)
+        model_down.estimate_normals(o3d.geometry.KDTreeSearchParamHybrid(radius=2 * v, max_nn=30))
+        model_down.orient_normals_consistent_tangent_plane(10)
     model_fpfh = reg.compute_fpfh_feature(model_down, o3d.geometry.KDTreeSearchParamHybrid(radius=5 * v, max_nn=100))
     model_ms = (time.perf_counter() - t0) * 1e3
 
@@ -434,9 +461,9 @@ def summarize(rows):
 
 def print_table(results, systems, scenes):
     print("| system | part | scenes | instances counted | recall | precision | TP / FP / excused "
-          "| detect median (ms) | detect max (ms) | model prep (ms) | process wall median (ms) "
-          "| capped / timeouts / errors |")
-    print("|---|---|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|")
+          "| FP per scene | detect median (ms) | detect max (ms) | model prep (ms) "
+          "| process wall median (ms) | capped / timeouts / errors |")
+    print("|---|---|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|")
     summary = {}
     for s in systems:
         rows = [results[sc["name"]][s] for sc in scenes]
@@ -448,7 +475,8 @@ def print_table(results, systems, scenes):
             summary[f"{s}/{part}"] = m
             print(f"| {SYSTEMS[s] if part == 'all' else ''} | {part} | {m['scenes']} | {m['counted']} "
                   f"| {m['recall']:.3f} | {m['precision']:.3f} | {m['true_positives']} / "
-                  f"{m['false_positives']} / {m['excused']} | {fmt(m['detect_median_ms'])} "
+                  f"{m['false_positives']} / {m['excused']} "
+                  f"| {m['false_positives'] / m['scenes']:.2f} | {fmt(m['detect_median_ms'])} "
                   f"| {fmt(m['detect_max_ms'])} | {fmt(m['model_median_ms'])} "
                   f"| {fmt(m['process_median_ms'])} | {m['capped']} / {m['timeouts']} / {m['errors']} |")
     return summary
@@ -460,6 +488,9 @@ def main():
     ap.add_argument("--first-seed", type=int, default=100,
                     help="seed of scene 0 (100: the bench's scenes; others: development sets)")
     ap.add_argument("--cache", help="keep the generated scenes here (reused when present)")
+    ap.add_argument("--real", action="store_true",
+                    help="the real teach-in cases of PCL's Kinect frames (bench/real_data.py, "
+                         "kinect_teach_in; needs python3-open3d) instead of generated scenes")
     ap.add_argument("--parts", default="bracket,flange",
                     help="the parts scene i takes in turn (bracket, flange, plate: mostly flat)")
     ap.add_argument("--systems", default="align3d,open3d,pcl",
@@ -503,12 +534,17 @@ def main():
     os.makedirs(cache, exist_ok=True)
     work = tempfile.mkdtemp(prefix="align3d_find_reports_")
     try:
-        scenes = make_scenes(args.cli, cache, args.scenes, args.first_seed, args.parts.split(","))
+        if args.real:
+            import real_data
+            scenes = real_data.kinect_teach_in(cache)
+        else:
+            scenes = make_scenes(args.cli, cache, args.scenes, args.first_seed,
+                                 args.parts.split(","))
         points = {}
         results = {}
         for k, scene in enumerate(scenes):
             if scene["part"] not in points:
-                points[scene["part"]] = model_points(align3d, os.path.join(scene["dir"], "model.stl"))
+                points[scene["part"]] = model_points(align3d, model_path(scene))
             results[scene["name"]] = {}
             for s in systems:
                 r = RUNNERS[s](args, scene, work)

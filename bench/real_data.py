@@ -9,7 +9,12 @@ consistent fit of the scans at that level: refined from it by Open3D alone (refi
 point-to-plane ICP of every pair 24° and 48° apart, a pose graph), the scans move by up to 0.65°
 and 2.7 mm, and the neighbours' median point-to-plane residual falls from 98-312 µm to 52-120 µm
 (2026-12-02). Benchmarks give both.
+
+PCL's Kinect frames (pcl-kinect/): teach-in cases for `find` (kinect_teach_in): a box cut out of
+the first frame (a pixel window, above the table's plane), moved by a known pose, to be found in
+each of the three frames.
 """
+import json
 import os
 
 import numpy as np
@@ -17,6 +22,14 @@ import numpy as np
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 REAL = os.path.normpath(os.path.join(REPO, "..", "shared", "data", "real"))
 DRAGON = os.path.join(REAL, "stanford-dragon")
+KINECT = os.path.join(REAL, "pcl-kinect")
+KINECT_FRAMES = ["frame_20121214T142255.814212.pcd", "frame_20121214T142256.068683.pcd",
+                 "frame_20121214T142256.332395.pcd"]
+# The boxes of the first frame: pixel windows (u0, u1, v0, v1) of the 640 x 480 image, the points
+# more than 15 mm above the table kept (tests/real_data_test.cpp cuts the same).
+KINECT_BOXES = {"small-box": (382, 520, 160, 330), "large-box": (120, 380, 130, 330)}
+# The known pose the taught model is moved by (the model's frame is not the camera's).
+TEACH_MOVE_AXIS, TEACH_MOVE_ANGLE, TEACH_MOVE_T = (0.3, 1.0, 0.2), 0.7, (0.5, -0.2, 0.3)
 
 
 def dragon_path(angle, data=DRAGON):
@@ -172,3 +185,67 @@ def refined_dragon_truth(cache, data=DRAGON):
     os.makedirs(cache, exist_ok=True)
     np.save(path, poses)
     return dict(zip(angles, poses))
+
+
+def rotation(axis, angle):
+    a = np.asarray(axis, dtype=np.float64)
+    a = a / np.linalg.norm(a)
+    k = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+    return np.eye(3) + np.sin(angle) * k + (1 - np.cos(angle)) * k @ k
+
+
+def kinect_teach_in(cache, data=KINECT):
+    """The teach-in cases of PCL's Kinect frames, written once into `cache`: per box of
+    KINECT_BOXES and per frame, a folder with model.ply (the box cut from frame 0, moved by the
+    known pose, no normals), scene.pcd (a link to the frame) and scene.json (the model's diameter
+    and the true pose, scene ≈ T · model). In frame 0 the truth is the inverse of the move. The
+    scene moves between frames (no truth comes with them): in frames 1 and 2 it is Open3D's
+    point-to-plane ICP of the model onto the frame from frame 0's truth (Open3D alone, so that no
+    align3d code makes its own reference); `truth` in scene.json says which. Needs python3-open3d.
+    Returns the scene dicts of bench/compare_find.py."""
+    import open3d as o3d
+    frames = [o3d.io.read_point_cloud(os.path.join(data, f), remove_nan_points=False,
+                                      remove_infinite_points=False) for f in KINECT_FRAMES]
+    first = np.asarray(frames[0].points)
+    finite = np.isfinite(first).all(axis=1)
+    o3d.utility.random.seed(1)
+    plane, _ = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(first[finite])).segment_plane(
+        0.01, 3, 1000)
+    height = first @ np.asarray(plane[:3]) + plane[3]
+    height *= 1 if plane[3] > 0 else -1  # positive on the camera's side (it sits at the origin)
+    move = np.eye(4)
+    move[:3, :3] = rotation(TEACH_MOVE_AXIS, TEACH_MOVE_ANGLE)
+    move[:3, 3] = TEACH_MOVE_T
+    u, v = np.arange(len(first)) % 640, np.arange(len(first)) // 640
+    scenes = []
+    for box, (u0, u1, v0, v1) in KINECT_BOXES.items():
+        cut = first[finite & (u >= u0) & (u < u1) & (v >= v0) & (v < v1) & (height > 0.015)]
+        model = transform(cut, move)
+        diameter = float(np.linalg.norm(model.max(axis=0) - model.min(axis=0)))
+        for k, frame in enumerate(KINECT_FRAMES):
+            name = f"kinect-{box}-frame{k}"
+            folder = os.path.join(cache, name)
+            os.makedirs(folder, exist_ok=True)
+            truth = np.linalg.inv(move)
+            if k > 0:
+                pts = np.asarray(frames[k].points)
+                target = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(
+                    pts[np.isfinite(pts).all(axis=1)]))
+                target.estimate_normals(o3d.geometry.KDTreeSearchParamKNN(20))
+                source = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(model))
+                reg = o3d.pipelines.registration
+                for reach in (0.03, 0.01):
+                    truth = reg.registration_icp(
+                        source, target, reach, truth, reg.TransformationEstimationPointToPlane(),
+                        reg.ICPConvergenceCriteria(1e-9, 1e-9, 100)).transformation
+            write_ply(os.path.join(folder, "model.ply"), model)
+            link = os.path.join(folder, "scene.pcd")
+            if not os.path.lexists(link):
+                os.symlink(os.path.join(os.path.abspath(data), frame), link)
+            with open(os.path.join(folder, "scene.json"), "w") as f:
+                json.dump({"model": {"diameter": diameter},
+                           "truth": "cut" if k == 0 else "Open3D ICP from frame 0's",
+                           "instances": [{"transformation": np.asarray(truth).tolist(),
+                                          "visible_fraction": 1.0}]}, f, indent=1)
+            scenes.append({"part": box, "name": name, "dir": folder, "model": "model.ply"})
+    return scenes
