@@ -11,6 +11,12 @@ The C++ is compiled once:
     passes build/) and builds only the module there (nothing, when it is up to date);
   - otherwise a tree of its own, build-python/cmake (Release, no tests), is configured on first use
     and kept, so a second install builds only what changed.
+A wheel (scripts/wheel.sh) is made the same way, from Debian's pip:
+
+    ALIGN3D_CMAKE_BUILD_DIR=build pip wheel --no-build-isolation --no-index --no-deps -w dist .
+
+It carries the `align3d` command as a console script (align3d/_cli.py: the tool run inside the
+extension). The version is CMakeLists.txt's project() version, read below.
 JOBS (or CMAKE_BUILD_PARALLEL_LEVEL) sets the parallel build jobs, default 2; ALIGN3D_OCCT (ON or
 OFF) the STEP/IGES reader, default ON when OpenCASCADE's headers are installed. setuptools' own
 files go to build-python/ too (not into build/, the CMake tree of scripts/build.sh).
@@ -110,6 +116,8 @@ setup(
     packages=["align3d"],
     package_data={"align3d": ["py.typed", "*.pyi"]},
     ext_modules=[Extension("align3d._core", sources=[])],
+    # The tool itself, run inside the extension (align3d/_cli.py): a wheel brings the command line.
+    entry_points={"console_scripts": ["align3d = align3d._cli:main"]},
     cmdclass={"build_ext": CMakeBuild},
     zip_safe=False,
     options={

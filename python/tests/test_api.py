@@ -120,3 +120,21 @@ def test_keywords_are_named_after_the_cli_flags(cli, command, function):
 
 def test_version():
     assert re.fullmatch(r"\d+\.\d+\.\d+", align3d.__version__)
+
+
+def test_one_version_everywhere(cli):
+    # CMake's project() version, the one place it is written: the package's metadata, the
+    # module's __version__, `align3d --version` and the package's own `align3d` command.
+    import importlib.metadata
+    import sys
+
+    cmake = (pathlib.Path(__file__).resolve().parents[2] / "CMakeLists.txt").read_text()
+    version = re.search(r"project\(align3d VERSION ([0-9.]+)", cmake).group(1)
+    assert align3d.__version__ == version
+    assert importlib.metadata.version("align3d") == version
+    for command in ([str(cli)], [sys.executable, "-m", "align3d._cli"]):
+        run = subprocess.run(command + ["--version"], capture_output=True, text=True)
+        assert (run.returncode, run.stdout, run.stderr) == (0, f"align3d {version}\n", "")
+    run = subprocess.run([sys.executable, "-m", "align3d._cli", "register", "--nonsense"],
+                         capture_output=True, text=True)
+    assert run.returncode == 2 and "see align3d --help" in run.stderr

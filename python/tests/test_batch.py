@@ -113,3 +113,19 @@ def test_the_align3d_batch_front_runs_the_engine(pairs, tmp_path, cli):
     report = json.loads((tmp_path / "r" / "scan0--model.json").read_text())
     direct = align3d.register(todo[0][0], todo[0][1]).to_dict()
     assert report["transformation"] == direct["transformation"]
+
+
+def test_the_packages_own_command_runs_the_engine_with_its_python(pairs, tmp_path):
+    # The wheel's `align3d` (align3d._cli, the tool inside the extension) names no Python: the
+    # batch engine runs with the interpreter that runs the command, not one baked in at build time.
+    _, todo, _ = pairs
+    csv = tmp_path / "pairs.csv"
+    csv.write_text("".join(f"{s},{t}\n" for s, t in todo[:1]))
+    env = {k: v for k, v in os.environ.items() if k != "ALIGN3D_PYTHON"}
+    run = subprocess.run([sys.executable, "-m", "align3d._cli", "batch", str(csv), "--report-dir",
+                          str(tmp_path / "r"), "--workers", "1", "--quiet"], capture_output=True,
+                         text=True, env=env)
+    assert run.returncode == 0, run.stderr
+    report = json.loads((tmp_path / "r" / "scan0--model.json").read_text())
+    direct = align3d.register(todo[0][0], todo[0][1]).to_dict()
+    assert report["transformation"] == direct["transformation"]

@@ -1,8 +1,9 @@
 // align3d batch PAIRS.csv --report-dir DIR ...: the Python package's batch engine on Dask
 // (python/align3d/batch.py), run as `PYTHON -m align3d.batch ARGS...`. The engine is Python
 // because Dask is; this command only finds the interpreter the package was installed for: the
-// environment's ALIGN3D_PYTHON, else the one the build names (ALIGN3D_BATCH_PYTHON:
-// scripts/build.sh sets its .venv/), else python3 on the PATH.
+// environment's ALIGN3D_PYTHON (the installed package's own `align3d`, align3d/_cli.py, sets it to
+// the Python that runs it, so a wheel needs no path from its build), else the one the build names
+// (ALIGN3D_BATCH_PYTHON: scripts/build.sh sets its .venv/), else python3 on the PATH.
 #include <sys/wait.h>
 #include <unistd.h>
 

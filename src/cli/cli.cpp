@@ -6,6 +6,10 @@
 #include "align3d/error.hpp"
 #include "common.hpp"
 
+#ifndef ALIGN3D_VERSION
+#error "ALIGN3D_VERSION: CMakeLists.txt defines it for this file from project(VERSION)"
+#endif
+
 namespace align3d::cli {
 
 int execute(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
@@ -17,7 +21,7 @@ int execute(const std::vector<std::string>& args, std::ostream& out, std::ostrea
       "overlap no other (stitch).",
       "align3d"};
   app.require_subcommand(1);
-  app.set_version_flag("--version", "align3d 0.1.0");
+  app.set_version_flag("--version", "align3d " ALIGN3D_VERSION);
   const Streams io{out, err};
   const Command commands[] = {add_register(app, io), add_synth(app, io),     add_rectify(app, io),
                               add_demo(app, io),     add_ppf_model(app, io), add_evaluate(app, io),
@@ -34,7 +38,7 @@ int execute(const std::vector<std::string>& args, std::ostream& out, std::ostrea
     out << app.help("", CLI::AppFormatMode::All);
     return 0;
   } catch (const CLI::CallForVersion&) {
-    out << "align3d 0.1.0\n";
+    out << "align3d " ALIGN3D_VERSION "\n";
     return 0;
   } catch (const CLI::ParseError& e) {
     // Help requested on a subcommand arrives as CallForHelp too; everything else is a usage error.
