@@ -3,7 +3,7 @@
 # and the `align3d` command (a console script running the tool inside the extension), for Debian's
 # /usr/bin/python3. It installs into any venv of that Python on the same platform without a
 # compiler: `python -m pip install --no-index dist/align3d-*.whl` (numpy from the venv or Debian's
-# python3-numpy; the shared libraries the module links: docs/cluster.md, "Many hosts").
+# python3-numpy; the shared libraries the module links: docs/cluster.md, "The wheel").
 # The extension comes from an existing CMake tree configured with the Python module (BUILD_DIR,
 # default build: scripts/build.sh makes it, and is run first when it is missing): only the module
 # target is built there, nothing when it is up to date.
