@@ -27,6 +27,11 @@ import align3d
 import align3d.batch
 from dask.distributed import Client, LocalCluster
 
+# The Python tests' generated surface (python/tests/conftest.py): the data, not the package, comes
+# from the repository.
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "python", "tests"))
+from conftest import surface  # noqa: E402
+
 
 def rotation(axis, angle_deg):
     """Rodrigues' formula: an oracle independent of the library."""
@@ -34,15 +39,6 @@ def rotation(axis, angle_deg):
     a = np.radians(angle_deg)
     K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
     return np.eye(3) + np.sin(a) * K + (1 - np.cos(a)) * K @ K
-
-
-def surface(n, seed):
-    """n points on a bumpy sheet with a bump on it (no symmetry), units of 1."""
-    rng = np.random.default_rng(seed)
-    xy = rng.uniform(-3, 3, size=(n, 2))
-    z = 0.4 * np.sin(1.3 * xy[:, 0]) * np.cos(0.9 * xy[:, 1]) + 0.15 * xy[:, 0]
-    z += 0.8 * np.exp(-((xy[:, 0] - 1) ** 2 + (xy[:, 1] + 0.5) ** 2) * 2)
-    return np.column_stack([xy, z])
 
 
 def make_pairs(directory, count, points):
