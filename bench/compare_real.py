@@ -21,7 +21,9 @@ table calls overlap). Starts:
 
 Systems, timed from the clouds in memory to the pose (file reading excluded):
   align3d  `align3d register SOURCE TARGET --report - --threads T` with its defaults; time = the
-           report's timing_ms.total; its warnings are listed (a right pose should have none)
+           report's timing_ms.total, which takes in the preparation (both clouds' kd-trees, scale
+           and noise: timing_ms.prepare; until 2026-12-03 it did not, which flattered align3d by
+           15-20 ms a pair); its warnings are listed (a right pose should have none)
   open3d   python3-open3d (0.16), its registration tutorial's pipeline: voxel v = 5 mm, normals
            (radius 2 v, 30 neighbours), FPFH (radius 5 v, 100), RANSAC on the mutual descriptor
            matches (3 points, distance 1.5 v, edge length 0.9, 100000 iterations, 0.999), then

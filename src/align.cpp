@@ -149,8 +149,12 @@ void check_settings(const AlignSettings& s) {
 
 class Pipeline {
  public:
-  Pipeline(const PointCloud& source, detail::TargetSide& target, const AlignSettings& s)
-      : source_(source),
+  // `start`: when the call began, so that the timings' total takes in the preparation (the
+  // target's side when it was not prepared beforehand, the source's tree and scale).
+  Pipeline(const PointCloud& source, detail::TargetSide& target, const AlignSettings& s,
+           Clock::time_point start)
+      : start_(start),
+        source_(source),
         target_(target),
         s_(s),
         source_tree_(source.positions, s.threads),
@@ -198,6 +202,7 @@ class Pipeline {
   void warn_ambiguous_global();
   void keep(const AlignCandidate& c, RefineResult r);
 
+  Clock::time_point start_;
   const PointCloud& source_;
   detail::TargetSide&
       target_;  // the target in spatial order, its scale, tree, normals, descriptors
@@ -361,7 +366,8 @@ void Pipeline::finish_first() {
 }
 
 AlignResult Pipeline::run() {
-  const auto start = Clock::now();
+  const Clock::time_point start = start_;
+  out_.timings.prepare_ms = ms_since(start);
   const InitPolicy policy = s_.init;
   RefineResult r;
   if (policy != InitPolicy::kGlobal) {
@@ -415,25 +421,28 @@ const char* to_string(InitPolicy p) {
 
 AlignResult align(const PointCloud& source, const PointCloud& target,
                   const AlignSettings& settings) {
+  const Clock::time_point start = Clock::now();
   check_settings(settings);
   check_registrable(source, "source");  // the source's problems are named first
   detail::TargetSide side(target, settings.refine.normals, settings.threads, false);
-  Pipeline pipeline(source, side, settings);
+  Pipeline pipeline(source, side, settings, start);
   return pipeline.run();
 }
 
 AlignResult align(const PointCloud& source, const TriangleMesh& target,
                   const AlignSettings& settings) {
+  const Clock::time_point start = Clock::now();
   check_settings(settings);
   check_registrable(source, "source");
   detail::TargetSide side(std::make_shared<const MeshIndex>(target, settings.threads, "target"),
                           settings.threads, false);
-  Pipeline pipeline(source, side, settings);
+  Pipeline pipeline(source, side, settings, start);
   return pipeline.run();
 }
 
 AlignResult align(const PointCloud& source, const PreparedTarget& target,
                   const AlignSettings& settings) {
+  const Clock::time_point start = Clock::now();
   check_settings(settings);
   check_registrable(source, "source");
   detail::TargetSide& side = detail::TargetSide::of(target);
@@ -441,7 +450,7 @@ AlignResult align(const PointCloud& source, const PreparedTarget& target,
     throw std::invalid_argument(
         "align: the target was prepared with normal k = " + std::to_string(side.refine.normal_k()) +
         ", the settings ask for " + std::to_string(settings.refine.normals.k));
-  Pipeline pipeline(source, side, settings);
+  Pipeline pipeline(source, side, settings, start);
   return pipeline.run();
 }
 

@@ -87,7 +87,7 @@ double surface_noise(const PointCloud& cloud, const KdTree& tree, int k, std::si
   return upper_median(rms);
 }
 
-double robust_extent(const PointCloud& cloud) {
+double robust_extent(const PointCloud& cloud, int threads) {
   const std::size_t n = cloud.size();
   if (n == 0) return 0.0;
   // Percentiles of at most ~100 000 evenly spaced points (enough for 0.5 % tails), along the
@@ -102,22 +102,22 @@ double robust_extent(const PointCloud& cloud) {
   for (const auto& p : sample) cov.noalias() += (p - mean) * (p - mean).transpose();
   const Eigen::Matrix3d axes = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(cov).eigenvectors();
   Eigen::Vector3d low, high;
-  std::vector<double> c(sample.size());
-  for (int axis = 0; axis < 3; ++axis) {
+  parallel_tasks(3, threads, [&](std::size_t axis) {  // each axis its own task (and projections)
+    std::vector<double> c(sample.size());
     for (std::size_t i = 0; i < sample.size(); ++i) c[i] = axes.col(axis).dot(sample[i] - mean);
     const auto at = [&](double q) {
       const auto k = static_cast<std::ptrdiff_t>(std::floor(q * static_cast<double>(c.size() - 1)));
       std::nth_element(c.begin(), c.begin() + k, c.end());
       return c[static_cast<std::size_t>(k)];
     };
-    low(axis) = at(0.005);
-    high(axis) = at(0.995);
-  }
+    low(static_cast<Eigen::Index>(axis)) = at(0.005);
+    high(static_cast<Eigen::Index>(axis)) = at(0.995);
+  });
   return (high - low).norm();
 }
 
 CloudScale measure_scale(const PointCloud& cloud, const KdTree& tree, int threads) {
-  return {robust_extent(cloud), point_spacing(cloud, tree, 2000, threads),
+  return {robust_extent(cloud, threads), point_spacing(cloud, tree, 2000, threads),
           surface_noise(cloud, tree, 20, 2000, threads)};
 }
 

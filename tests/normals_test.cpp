@@ -140,6 +140,28 @@ TEST(Normals, OrientedTowardTheViewpoint) {
   }
 }
 
+TEST(Normals, TurnedTowardAnotherViewpointAsIfEstimatedFromThere) {
+  // orient_normals after estimating toward A gives the bits estimating toward B gives (the
+  // neighbourhoods all have a plane: a noisy sphere).
+  Random rng(405);
+  PointCloud from_a = sample_sphere(Eigen::Vector3d(0, 0, 0), 1.0, 3000, 0.01, rng);
+  PointCloud from_b = from_a;
+  NormalSettings a, b;
+  a.viewpoint = Eigen::Vector3d(0, 0, 5);
+  b.viewpoint = Eigen::Vector3d(4, -3, 0.5);
+  ASSERT_EQ(estimate_normals(from_a, a).undefined, 0u);
+  estimate_normals(from_b, b);
+  orient_normals(from_a, *b.viewpoint, 2);
+  std::size_t turned = 0;
+  for (std::size_t i = 0; i < from_a.size(); ++i) {
+    EXPECT_EQ(from_a.normals[i], from_b.normals[i]) << i;
+    turned += from_a.normals[i].dot(*a.viewpoint - from_a.positions[i]) < 0;
+  }
+  EXPECT_GT(turned, from_a.size() / 10);  // the two viewpoints disagree on many points
+  PointCloud bare;
+  bare.positions.push_back(Eigen::Vector3d::Zero());
+  EXPECT_THROW(orient_normals(bare, Eigen::Vector3d::Zero()), std::invalid_argument);
+}
 TEST(Normals, CylinderNormalsAreRadial) {
   // Radius 1, length 6, axis tilted; 20000 points on the side (spacing ~0.04), σ = 0.001. As for
   // the sphere, the centroid offset across the axis biases a normal by up to ~2° (measured:

@@ -90,8 +90,11 @@ struct AlignCandidate {
   bool weak = false;  // has warnings (align.hpp)
 };
 
+// Wall time of align()'s steps. prepare_ms: the target's side (its tree, scale, sampling) unless
+// a PreparedTarget holds it, and the source's tree and scale; total_ms: the whole call, prepare_ms
+// included.
 struct AlignTimings {
-  double global_ms = 0, refine_ms = 0, support_ms = 0, total_ms = 0;
+  double prepare_ms = 0, global_ms = 0, refine_ms = 0, support_ms = 0, total_ms = 0;
 };
 
 struct AlignResult {

@@ -31,7 +31,7 @@ double surface_noise(const PointCloud& cloud, const KdTree& tree, int k = 20,
 // 99.5th percentiles of the coordinates: the size of the bulk of the cloud, which a few stray
 // points far away (a depth camera's flying pixels) do not inflate and which does not change when
 // the cloud turns. 0 for an empty cloud.
-double robust_extent(const PointCloud& cloud);
+double robust_extent(const PointCloud& cloud, int threads = 1);
 
 // The three measures of one cloud, taken once per registration and passed down (align.hpp keeps
 // the target's across calls: PreparedTarget).

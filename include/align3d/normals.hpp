@@ -34,6 +34,11 @@ NormalResult estimate_normals(PointCloud& cloud, const KdTree& tree,
                               const NormalSettings& settings = {});
 NormalResult estimate_normals(PointCloud& cloud, const NormalSettings& settings = {});
 
+// Turns each of cloud.normals toward `viewpoint` (n·(viewpoint − p) >= 0): estimate_normals' result
+// for another viewpoint without a second search, but for the neighbourhoods with no plane, whose
+// normal stays the line toward the first viewpoint.
+void orient_normals(PointCloud& cloud, const Eigen::Vector3d& viewpoint, int threads = 1);
+
 // Where the sensor of a one-sided range scan was, estimated from the scan alone (its normals, of
 // either sign): a range scan is one side of its object, seen along the axis its normals face most
 // (the principal axis of Σ n·nᵀ), from the side its surface bulges to (objects are convex on the
@@ -68,7 +73,7 @@ class NormalCache {
   std::size_t undefined() const { return undefined_; }  // of those, neighbourhoods with no plane
 
  private:
-  enum State : unsigned char { kUnknown, kDefined, kUndefined };
+  enum State : unsigned char { kUnknown, kDefined, kUndefined, kPending };  // pending: in require
   const PointCloud& cloud_;
   const KdTree& tree_;
   NormalSettings settings_;

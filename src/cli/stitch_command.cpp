@@ -140,14 +140,20 @@ Scans load_scans(const std::vector<std::string>& files, Streams io, ProgressLine
 
 void print_summary(std::ostream& out, const std::vector<std::string>& files,
                    const StitchResult& r) {
-  std::size_t connected = 0, kept = 0;
-  for (const StitchScan& s : r.scans) connected += s.connected ? 1 : 0;
+  std::size_t connected = 0, kept = 0, sensors[3] = {0, 0, 0};
+  for (const StitchScan& s : r.scans) {
+    connected += s.connected ? 1 : 0;
+    ++sensors[static_cast<int>(s.sensor)];
+  }
   for (const StitchEdge& e : r.edges) kept += e.kept ? 1 : 0;
   out << "stitched " << r.scans.size() << " scans into the frame of " << files.front() << ": "
       << connected << " connected, " << r.edges.size() << " overlapping pairs (" << kept
       << " kept); merged " << r.merged.size() << " points (voxel " << std::setprecision(4)
       << r.voxel << ", diameter " << r.diameter << "; " << std::setprecision(3)
       << r.timings.total_ms / 1000 << " s)\n";
+  out << "sensor positions: " << sensors[static_cast<int>(SensorSource::kGiven)] << " given, "
+      << sensors[static_cast<int>(SensorSource::kEstimated)] << " estimated from the scan, "
+      << sensors[static_cast<int>(SensorSource::kOrigin)] << " taken at the origin\n";
   for (std::size_t k = 0; k < r.scans.size(); ++k) {
     const StitchScan& s = r.scans[k];
     const Eigen::Vector3d t = s.transformation.translation();

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "detail/parallel.hpp"
 
@@ -78,16 +79,23 @@ void find_surface_correspondences(const std::vector<Eigen::Vector3d>& source,
 std::vector<double> normal_residuals(const std::vector<Eigen::Vector3d>& source,
                                      const Eigen::Isometry3d& T, const Correspondences& c,
                                      double threshold, const PointCloud& target,
-                                     const std::vector<Eigen::Vector3d>& normals) {
+                                     const std::vector<Eigen::Vector3d>& normals, int threads) {
   const bool surface = !c.point.empty();  // a mesh target (solver.cpp reads it so too)
+  // Computed in parallel into place (NaN: not a pair), then gathered in index order.
+  std::vector<double> all(source.size());
+  parallel_for(source.size(), threads, [&](std::size_t i) {
+    if (!is_kept(c, i, threshold) || (!c.aside.empty() && c.aside[i])) {
+      all[i] = std::numeric_limits<double>::quiet_NaN();
+      return;
+    }
+    const Eigen::Vector3d p = T * source[i];
+    all[i] = surface ? c.normal[i].dot(p - c.point[i])
+                     : normals[c.target[i]].dot(p - target.positions[c.target[i]]);
+  });
   std::vector<double> residuals;
   residuals.reserve(source.size());
-  for (std::size_t i = 0; i < source.size(); ++i) {
-    if (!is_kept(c, i, threshold) || (!c.aside.empty() && c.aside[i])) continue;
-    const Eigen::Vector3d p = T * source[i];
-    residuals.push_back(surface ? c.normal[i].dot(p - c.point[i])
-                                : normals[c.target[i]].dot(p - target.positions[c.target[i]]));
-  }
+  for (const double r : all)
+    if (!std::isnan(r)) residuals.push_back(r);
   return residuals;
 }
 

@@ -101,7 +101,7 @@ IcpResult run_icp(const PointCloud& source, const Target& target, const Eigen::I
   // partners are close in space, so the search and the sums stay in cache on large clouds.
   std::vector<Eigen::Vector3d> moving(source.size()), moving_normals;
   {
-    const std::vector<std::uint32_t> order = spatial_order(source.positions);
+    const std::vector<std::uint32_t> order = spatial_order(source.positions, s.threads);
     for (std::size_t k = 0; k < moving.size(); ++k) moving[k] = source.positions[order[k]];
     if (needs_source_normals(s.method) || measures_model_error(source, target, s)) {
       moving_normals.resize(source.size());
@@ -178,9 +178,9 @@ IcpResult run_icp(const PointCloud& source, const Target& target, const Eigen::I
   }
   if (s.judge.noise >= 0 && result.stop_reason != StopReason::kTooFewCorrespondences &&
       (target.surface || reads_target_normals(s)))
-    result.fit = judge_fit(
-        normal_residuals(moving, result.T_target_source, c, threshold, target_cloud, normals),
-        s.judge.noise, s.judge.spacing);
+    result.fit = judge_fit(normal_residuals(moving, result.T_target_source, c, threshold,
+                                            target_cloud, normals, s.threads),
+                           s.judge.noise, s.judge.spacing);
   if (s.covariance) {
     result.covariance = pose_covariance(pairs(), {s.method, s.kernel, kernel_scale}, result.hessian,
                                         result.degenerate_directions, diagonal, s.threads);

@@ -81,9 +81,9 @@ PointCloud reordered(const PointCloud& cloud, const std::vector<std::uint32_t>& 
 
 // At most kCoarsePoints of `source` (with their normals), evenly along the Morton curve; empty when
 // it is small enough.
-PointCloud thinned(const PointCloud& source) {
+PointCloud thinned(const PointCloud& source, int threads) {
   if (source.size() <= kCoarsePoints) return {};
-  const std::vector<std::uint32_t> order = spatial_order(source.positions);
+  const std::vector<std::uint32_t> order = spatial_order(source.positions, threads);
   const std::size_t step = (source.size() + kCoarsePoints - 1) / kCoarsePoints;
   std::vector<std::uint32_t> kept;
   for (std::size_t k = 0; k < order.size(); k += step) kept.push_back(order[k]);
@@ -135,7 +135,7 @@ double noise_stages(const PointCloud& source, const MeshIndex& surface, double t
 RefineTarget::RefineTarget(const PointCloud& target, const NormalSettings& normals, int threads)
     : normal_k_(normals.k), threads_(threads) {
   check_registrable(target, "target");
-  cloud_ = reordered(target, spatial_order(target.positions));
+  cloud_ = reordered(target, spatial_order(target.positions, threads));
   tree_ = std::make_unique<KdTree>(cloud_.positions, threads);
   if (!cloud_.has_normals()) {
     NormalSettings ns = normals;
@@ -156,7 +156,7 @@ PointCloud mesh_target_sample(const MeshIndex& surface) {
 RefineTarget::RefineTarget(std::shared_ptr<const MeshIndex> surface, int threads)
     : surface_(std::move(surface)), threads_(threads) {
   const PointCloud sample = mesh_target_sample(*surface_);
-  cloud_ = reordered(sample, spatial_order(sample.positions));
+  cloud_ = reordered(sample, spatial_order(sample.positions, threads));
   tree_ = std::make_unique<KdTree>(cloud_.positions, threads);
 }
 
@@ -220,7 +220,7 @@ void RefineTarget::estimate_all_normals() {
 }
 
 double RefineTarget::extent() {
-  if (extent_ < 0) extent_ = robust_extent(cloud_);
+  if (extent_ < 0) extent_ = robust_extent(cloud_, threads_);
   return extent_;
 }
 
@@ -242,7 +242,8 @@ FitEvidence measure_fit(const PointCloud& source, RefineTarget& target, const Ei
   const PointCloud& cloud = target.cloud();
   if (const MeshIndex* surface = target.surface()) {
     find_surface_correspondences(source.positions, *surface, T, reach, threads, c);
-    return judge_fit(normal_residuals(source.positions, T, c, reach, cloud, {}), noise, spacing);
+    return judge_fit(normal_residuals(source.positions, T, c, reach, cloud, {}, threads), noise,
+                     spacing);
   }
   find_correspondences(source.positions, cloud, target.tree(), T, reach, threads, c);
   set_aside_crowded(cloud.size(), reach, kFinalReciprocity, kReciprocityFloorSpacings * spacing,
@@ -251,8 +252,9 @@ FitEvidence measure_fit(const PointCloud& source, RefineTarget& target, const Ei
   for (std::size_t i = 0; i < source.size(); ++i)
     if (is_kept(c, i, reach) && !c.aside[i])
       partners.push_back(static_cast<std::uint32_t>(c.target[i]));
-  return judge_fit(normal_residuals(source.positions, T, c, reach, cloud, target.normals(partners)),
-                   noise, spacing);
+  return judge_fit(
+      normal_residuals(source.positions, T, c, reach, cloud, target.normals(partners), threads),
+      noise, spacing);
 }
 
 namespace {
@@ -402,8 +404,8 @@ double noise_of(const PointCloud& source, const RefineSettings& settings) {
 // normals (of `from`'s points) for the costs that read them (GICP).
 class Pyramid {
  public:
-  Pyramid(const PointCloud& coarse, RefineTarget& target)
-      : coarse_(coarse), target_(target), curve_(spatial_order(coarse.positions)) {}
+  Pyramid(const PointCloud& coarse, RefineTarget& target, int threads)
+      : coarse_(coarse), target_(target), curve_(spatial_order(coarse.positions, threads)) {}
 
   const PointCloud& source(int j, const PointCloud& from) {
     std::vector<PointCloud>& built = built_[from.has_normals()];
@@ -468,12 +470,12 @@ void refine_schedule(const PointCloud& source, RefineTarget& target, const Eigen
   // L: the extent of the object, the smaller of the two clouds (cloud_stats.hpp), so that a part
   // registered into a wide scene is not pulled by clutter within an eighth of the scene's size. A
   // cloud of duplicated points has no measurable spacing; fall back to a fine fraction of L.
-  const double diagonal = std::min(target.extent(), robust_extent(source));
+  const double diagonal = std::min(target.extent(), robust_extent(source, settings.threads));
   double spacing = target.spacing();
   if (!(spacing > 0)) spacing = 1e-4 * diagonal;
   out.point_spacing = spacing;
   const double floor = kFinalSpacings * spacing;
-  const PointCloud thin = thinned(source);
+  const PointCloud thin = thinned(source, settings.threads);
   const PointCloud& coarse_source = thin.empty() ? source : thin;
   const double source_noise = noise_of(coarse_source, settings);
   auto judge = [&](const Eigen::Isometry3d& T, double reach) {
@@ -485,7 +487,7 @@ void refine_schedule(const PointCloud& source, RefineTarget& target, const Eigen
   coarse.method = IcpMethod::kPointToPlane;
   coarse.termination = {kCoarseIterations, 1e-4, true, 1e-5, 1e-6};
   coarse.kernel = RobustKernel::kGemanMcClure;
-  Pyramid pyramid(coarse_source, target);
+  Pyramid pyramid(coarse_source, target, settings.threads);
   // A coarse stage: at its level, else on `from`.
   double resolution = 0;  // of the last stage run at a level
   auto stage = [&](const PointCloud& from, const Eigen::Isometry3d& T, const IcpSettings& s) {

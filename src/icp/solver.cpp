@@ -241,24 +241,44 @@ IcpStep solve_step(const StepInput& in, const StepCost& given, int threads) {
 
 namespace {
 
-// The bread Σ ψ'·JᵀMJ, and each pair's gradient g = w·JᵀM e with its partner, in the method's
-// unknowns about the centre.
+// The bread Σ ψ'·JᵀMJ, and the meat Σ over partners of (Σ g)(Σ g)ᵀ, g = w·JᵀM e a pair's gradient
+// in the method's unknowns about the centre: the gradients of pairs sharing a target point are
+// summed first (their residuals share that point's noise: cluster-robust). A pair whose partner no
+// other pair has adds g gᵀ at once; the others' gradients are kept with their partner and summed
+// by partner after the reduction (clustered_meat). Hand-written: keeping every gradient and
+// sorting them all cost 4 ms a registration of two 40 000-point scans, on the calling thread.
 struct SandwichSums {
   Matrix6d H = Matrix6d::Zero();
-  std::vector<std::pair<std::uint64_t, Vector6d>> gradients;
+  Matrix6d G = Matrix6d::Zero();
+  std::vector<std::pair<std::uint64_t, Vector6d>> shared;
   SandwichSums& operator+=(const SandwichSums& o) {
     H += o.H;
-    gradients.insert(gradients.end(), o.gradients.begin(), o.gradients.end());
+    G += o.G;
+    shared.insert(shared.end(), o.shared.begin(), o.shared.end());
     return *this;
   }
 };
 
-// Σ over partners of (Σ g)(Σ g)ᵀ: the gradients of the pairs sharing a target point summed first
-// (their residuals share that point's noise: cluster-robust).
-Matrix6d clustered_meat(std::vector<std::pair<std::uint64_t, Vector6d>>& g) {
+// The kept pairs' partners that more than one pair has (1), of a cloud target: the others' (0)
+// gradients need no clustering. Empty for a mesh target (every partner is its own pair).
+std::vector<unsigned char> shared_partners(const StepInput& in) {
+  const Correspondences& c = in.pairs;
+  std::vector<unsigned char> seen;
+  if (!c.point.empty()) return seen;
+  seen.assign(in.target.size(), 0);  // 0 none, 1 one pair, 2 more
+  for (std::size_t i = 0; i < c.target.size(); ++i)
+    if (is_kept(c, i, in.threshold) && (c.aside.empty() || !c.aside[i]))
+      seen[c.target[i]] = static_cast<unsigned char>(std::min(2, seen[c.target[i]] + 1));
+  for (unsigned char& s : seen) s = s == 2;
+  return seen;
+}
+
+// G plus Σ over the shared partners of (Σ g)(Σ g)ᵀ.
+Matrix6d clustered_meat(SandwichSums& sums) {
+  std::vector<std::pair<std::uint64_t, Vector6d>>& g = sums.shared;
   std::stable_sort(g.begin(), g.end(),
                    [](const auto& a, const auto& b) { return a.first < b.first; });
-  Matrix6d G = Matrix6d::Zero();
+  Matrix6d G = sums.G;
   for (std::size_t i = 0; i < g.size();) {
     Vector6d sum = Vector6d::Zero();
     std::size_t j = i;
@@ -276,6 +296,13 @@ Matrix6d pose_covariance(const StepInput& in, const StepCost& cost, const Matrix
   // Onto tangent planes, point-to-point's stationary point is point-to-plane's: Σ Jᵀ(p − q') = 0
   // with p − q' along n is point-to-plane's normal equations, the kernel on the same residual.
   const IcpMethod factor = on_planes(in, cost.method) ? IcpMethod::kPointToPlane : cost.method;
+  const std::vector<unsigned char> shared = shared_partners(in);
+  auto gradient = [&](SandwichSums& s, std::uint64_t partner, const Vector6d& g) {
+    if (!shared.empty() && shared[partner])
+      s.shared.emplace_back(partner, g);
+    else
+      s.G.noalias() += g * g.transpose();
+  };
   auto totals =
       reduce_pairs<SandwichSums>(in, cost.method, threads, [&](SandwichSums& s, const Pair& pair) {
         const double d = kernel_residual(cost.method, pair);
@@ -288,13 +315,13 @@ Matrix6d pose_covariance(const StepInput& in, const StepCost& cost, const Matrix
                                         : Eigen::Matrix3d::Identity();
           const Eigen::Matrix<double, 6, 3> JtM = GicpFactor::jacobian(pair.p).transpose() * M;
           s.H.noalias() += slope * JtM * GicpFactor::jacobian(pair.p);
-          s.gradients.emplace_back(pair.partner, w * JtM * e);
+          gradient(s, pair.partner, w * JtM * e);
         } else {
           double r;
           Vector6d J;
           scalar_factor(factor, pair, r, J);
           s.H.noalias() += slope * J * J.transpose();
-          s.gradients.emplace_back(pair.partner, (w * r) * J);
+          gradient(s, pair.partner, (w * r) * J);
         }
         return 0.0;
       });
@@ -303,7 +330,7 @@ Matrix6d pose_covariance(const StepInput& in, const StepCost& cost, const Matrix
   const Vector6d values = eig.eigenvalues().cwiseMax(1e-12 * eig.eigenvalues().maxCoeff());
   const Matrix6d H_inv =
       eig.eigenvectors() * values.cwiseInverse().asDiagonal() * eig.eigenvectors().transpose();
-  Matrix6d cov = H_inv * clustered_meat(totals.sums.gradients) * H_inv;
+  Matrix6d cov = H_inv * clustered_meat(totals.sums) * H_inv;
   // The directions the step left free: the data do not fix them (GICP's tangential terms would
   // otherwise claim the axial shift of a cylinder from the samplings' offsets).
   if (!weak.empty()) {

@@ -207,6 +207,7 @@ nlohmann::json registration_report(const AlignResult& r, const AlignSettings& s,
                       {"warnings", to_json(r.warnings)},
                       {"timing_ms",
                        {{"total", r.timings.total_ms},
+                        {"prepare", r.timings.prepare_ms},
                         {"global", r.timings.global_ms},
                         {"refine", r.timings.refine_ms},
                         {"support", r.timings.support_ms}}}};

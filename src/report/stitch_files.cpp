@@ -71,15 +71,18 @@ std::string summary_html(const StitchResult& r, const StitchPageInfo& info) {
 
 std::string poses_html(const StitchResult& r, const StitchPageInfo& info) {
   std::string t = "<h2>Poses</h2>\n<table>\n" +
-                  header({"#", "file", "connected", "points", "kept edges", "rotation (\u00b0)",
-                          "translation (x, y, z)", "residual pairs", "residual RMS", "residual p95",
-                          "warnings"});
+                  header({"#", "file", "sensor", "connected", "points", "kept edges",
+                          "rotation (\u00b0)", "translation (x, y, z)", "residual pairs",
+                          "residual RMS", "residual p95", "warnings"});
   for (std::size_t k = 0; k < r.scans.size(); ++k) {
     const StitchScan& s = r.scans[k];
     const Eigen::Vector3d p = s.transformation.translation();
     // The codes of the warnings that name this scan: with any, its pose may be wrong.
     const std::string warnings = comma_list(s.warnings);
-    t += "<tr>" + cell(std::to_string(k), true) + cell(file_of(info, k)) + "<td" +
+    // Where the scan's sensor position came from: its file or --viewpoint (given), estimated from
+    // the scan, or the origin taken for want of either (stitch.hpp, SensorSource).
+    t += "<tr>" + cell(std::to_string(k), true) + cell(file_of(info, k)) +
+         cell(std::string(to_string(s.sensor))) + "<td" +
          (s.connected ? ">yes" : " class=warn>no") + "</td>" + cell(format_count(s.points), true) +
          cell(std::to_string(s.edges), true) +
          cell(num(rad_to_deg(rotation_angle(s.transformation.linear())), "%.3f"), true) +

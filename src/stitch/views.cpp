@@ -61,8 +61,7 @@ std::vector<ScanData> prepare_scans(const std::vector<PointCloud>& scans,
     }
     d.sensor = SensorSource::kEstimated;
     d.viewpoint = estimated_viewpoint(d.cloud, d.scale.extent);
-    ns.viewpoint = d.viewpoint;
-    estimate_normals(d.cloud, *d.tree, ns);
+    orient_normals(d.cloud, d.viewpoint, inner);
   });
   return out;
 }

@@ -60,7 +60,7 @@ void set_aside_crowded(std::size_t targets, double threshold, double reciprocity
 std::vector<double> normal_residuals(const std::vector<Eigen::Vector3d>& source,
                                      const Eigen::Isometry3d& T, const Correspondences& c,
                                      double threshold, const PointCloud& target,
-                                     const std::vector<Eigen::Vector3d>& normals);
+                                     const std::vector<Eigen::Vector3d>& normals, int threads = 1);
 
 // Pairs T·source[i] with its closest point on `surface` closer than `bound` (the same contract);
 // consecutive source points close in space make the search cheap (MeshIndex::closest_points).
