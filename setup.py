@@ -51,7 +51,7 @@ class CMakeBuild(build_ext):
         tree = self._tree()
         jobs = os.environ.get("JOBS") or os.environ.get("CMAKE_BUILD_PARALLEL_LEVEL") or "2"
         self._cmake("--build", tree, "--target", "align3d_python", "-j", jobs)
-        built = Path((tree / "python" / "extension_path.txt").read_text().strip())
+        built, *beside = map(Path, (tree / "python" / "extension_path.txt").read_text().splitlines())
         suffix = sysconfig.get_config_var("EXT_SUFFIX")
         if not built.name.endswith(suffix):
             sys.exit(
@@ -62,6 +62,8 @@ class CMakeBuild(build_ext):
         destination = Path(self.get_ext_fullpath(ext.name))
         destination.parent.mkdir(parents=True, exist_ok=True)
         shutil.copyfile(built, destination)
+        for extra in beside:  # the OpenCASCADE module, looked for beside the extension
+            shutil.copyfile(extra, destination.parent / extra.name)
 
     def _tree(self):
         given = os.environ.get("ALIGN3D_CMAKE_BUILD_DIR")

@@ -1,11 +1,11 @@
-# OpenCASCADE (OCCT) for align3d's STEP and IGES reader (ALIGN3D_OCCT; src/io/cad_exchange.cpp).
-# Included by CMakeLists.txt and, installed next to it, by align3dConfig.cmake: the core is a static
-# library, so its users link the OCCT toolkits it calls.
+# OpenCASCADE (OCCT) for align3d's STEP and IGES reader (ALIGN3D_OCCT): the module
+# libalign3d_occt.so (src/io/occt/) links it, and the tests that write CAD files. Included by
+# CMakeLists.txt and tests/CMakeLists.txt; the core and its users do not link OCCT.
 #
 #   align3d_occt_target(<target> <toolkit>...)
 #     Finds the OCCT headers (ALIGN3D_OCCT_INCLUDE_DIR, <prefix>/include/opencascade) and the
 #     shared toolkits named, and makes <target> an imported interface target that links them (no
-#     include directories: only cad_exchange.cpp and the tests include OCCT, and they add
+#     include directories: only the module and the tests include OCCT, and they add
 #     ALIGN3D_OCCT_INCLUDE_DIR themselves). Sets ALIGN3D_OCCT_FOUND, and ALIGN3D_OCCT_MISSING to
 #     what was not found. A non-standard OCCT is found through CMAKE_PREFIX_PATH.
 #

@@ -22,4 +22,19 @@ cmake --build "$tmp/build" -j "${JOBS:-2}"
 "$tmp/build/register_scene"
 "$tmp/build/report/plot_scene" "$tmp"
 "$tmp/build/report/cli_version"
+# The installed tool reads STEP through the installed OpenCASCADE module (lib/align3d/), found from
+# its own place (the prefix here is not the one it was configured for): the file has no shape, an
+# error only the module's OpenCASCADE can give.
+if grep -q '^ALIGN3D_OCCT:BOOL=ON$' "$build_dir/CMakeCache.txt"; then
+  set +e
+  LD_DEBUG=files "$tmp/prefix/bin/align3d" convert tests/data/hostile/step_only_a_point.step \
+    "$tmp/x.ply" > "$tmp/step.log" 2>&1
+  code=$?
+  set -e
+  grep -q "contains no shape OpenCASCADE can transfer" "$tmp/step.log" && [ $code = 3 ] &&
+    grep -q "file=$tmp/prefix/bin/../lib[^ ]*/align3d/libalign3d_occt.so" "$tmp/step.log" ||
+    { echo "consumer: the installed align3d did not read STEP through its installed module:" >&2
+      grep -v "^ *[0-9]*:" "$tmp/step.log" >&2; grep "occt" "$tmp/step.log" >&2; exit 1; }
+  echo "STEP through $(grep -o "file=[^ ]*libalign3d_occt.so" "$tmp/step.log" | head -1)"
+fi
 echo "consumer: passed"

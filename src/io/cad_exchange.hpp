@@ -1,10 +1,11 @@
 // STEP and IGES through OpenCASCADE (mesh_io.hpp): private to src/io. Built with ALIGN3D_OCCT the
-// reader tessellates the file's shapes; without it, it throws an IoError saying so.
+// reader tessellates the file's shapes, in a child process, with the module libalign3d_occt.so
+// (occt_module.hpp); without it, it throws an IoError saying so.
 //
 // OCCT keeps process-wide state (its default messenger, the Interface_Static parameters, IGES's C
-// parser), so reads are serialised by a mutex: two threads may call read_cad_exchange at once, one
-// waits. While a read runs, the default messenger's printers are set aside (OCCT would print to
-// stdout) and the session's length unit is millimetres; both are restored afterwards.
+// parser), so the module serialises reads by a mutex. While a read runs, the default messenger's
+// printers are set aside (OCCT would print to stdout) and the session's length unit is
+// millimetres; both are restored afterwards.
 #pragma once
 
 #include <filesystem>
@@ -13,7 +14,8 @@
 
 namespace align3d::io::detail {
 
-// Whether this build reads STEP and IGES.
+// Whether this build reads STEP and IGES: built with OpenCASCADE and its module found
+// (cad_exchange.cpp: where it is looked for).
 bool occt_available();
 
 // Reads a STEP (format kStep) or IGES (kIges) file and tessellates every face (mesh_io.hpp):
