@@ -366,8 +366,7 @@ void Pipeline::finish_first() {
 }
 
 AlignResult Pipeline::run() {
-  const Clock::time_point start = start_;
-  out_.timings.prepare_ms = ms_since(start);
+  out_.timings.prepare_ms = ms_since(start_);
   const InitPolicy policy = s_.init;
   RefineResult r;
   if (policy != InitPolicy::kGlobal) {
@@ -387,7 +386,7 @@ AlignResult Pipeline::run() {
     out_.global = run_global();
     if (!out_.global->success) {
       out_.failure = "global registration found no pose: " + out_.global->message;
-      out_.timings.total_ms = ms_since(start);
+      out_.timings.total_ms = ms_since(start_);
       return std::move(out_);
     }
     bool ambiguous = false;
@@ -399,7 +398,7 @@ AlignResult Pipeline::run() {
     for (Warning& w : weaknesses(out_.refine, out_.support)) out_.warnings.push_back(std::move(w));
     if (auto w = stopped_short(out_.refine.icp)) out_.warnings.push_back(std::move(*w));
   }
-  out_.timings.total_ms = ms_since(start);
+  out_.timings.total_ms = ms_since(start_);
   return std::move(out_);
 }
 
