@@ -307,8 +307,9 @@ void Pipeline::warn_ambiguous_global() {
 
 // Init auto, after an unconfirmed or weak first answer: the global stage, its answer kept when
 // clearly better supported; if it is not (or found nothing) and the first run's step 3 test found
-// its pose unconfirmed, ICP from the initial pose again with step 3 (hops, the GICP candidate),
-// kept when clearly better than the first.
+// its pose unconfirmed, the first run continued with step 3 (hops, the GICP candidate;
+// RefineSettings::resume), kept when clearly better than the first, or when the first was a probe
+// that gave up and no hop was kept (it is then the first run finished).
 void Pipeline::mend_unconfirmed(const Eigen::Isometry3d& init, const AlignCandidate& first) {
   const bool step3 = out_.refine.unconfirmed && (thorough_.hop || thorough_.gicp_candidate);
   out_.global = run_global();
@@ -332,8 +333,15 @@ void Pipeline::mend_unconfirmed(const Eigen::Isometry3d& init, const AlignCandid
   AlignCandidate kept = first;
   if (step3) {  // else the rerun would only repeat the first
     RefineResult r3;
-    const AlignCandidate third = refine_from(init, "initial", thorough_, r3);
+    RefineSettings continued = thorough_;  // the first run, continued with step 3
+    continued.resume = &out_.refine;
+    const AlignCandidate third = refine_from(init, "initial", continued, r3);
     if (clearly_better(third, first, !out_.success)) {
+      keep(third, std::move(r3));
+      kept = third;
+    } else if (!out_.refine.finished && !r3.hopped) {  // no hop kept: the first run, finished
+      out_.candidates.front() = third;
+      out_.candidates.pop_back();
       keep(third, std::move(r3));
       kept = third;
     }

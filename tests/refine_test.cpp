@@ -231,6 +231,39 @@ TEST(Refine, GicpCandidateHoldsTheTruthOfTwoRangeScansOfTheAnimal) {
   EXPECT_EQ(bare.hops, 0);
 }
 
+// Step 3 resumed (RefineSettings::resume): the bare run above, continued, holds the truth as the
+// run with step 3 from the start does, without repeating its stages: the bare run's stages come
+// first, unchanged, and every stage after them is a candidate's, all but the final stage again.
+TEST(Refine, ResumedRunContinuesWithStepThree) {
+  const EvalScene scans = evaluation_scene("animal");
+  const double diagonal = bounding_box_diagonal(scans.target);
+  RefineSettings bare;
+  bare.hop = false;
+  bare.gicp_candidate = false;
+  const RefineResult first = refine(scans.source, scans.target, scans.T_target_source, bare);
+  ASSERT_TRUE(first.unconfirmed);
+  ASSERT_GT(first.stages.size(), 1u);
+  RefineSettings continued;
+  continued.resume = &first;
+  const RefineResult r = refine(scans.source, scans.target, scans.T_target_source, continued);
+  EXPECT_LT(rotation_error_deg(r.icp.T_target_source, scans.T_target_source), 1.0);
+  EXPECT_LT(translation_error(r.icp.T_target_source, scans.T_target_source), 0.005 * diagonal);
+  EXPECT_TRUE(r.hopped);
+  ASSERT_GT(r.stages.size(), first.stages.size() + 1);
+  for (std::size_t k = 0; k < first.stages.size(); ++k) {
+    EXPECT_EQ(r.stages[k].iterations, first.stages[k].iterations) << k;
+    EXPECT_EQ(r.stages[k].max_distance, first.stages[k].max_distance) << k;
+    EXPECT_FALSE(r.stages[k].hop) << k;
+  }
+  for (std::size_t k = first.stages.size(); k + 1 < r.stages.size(); ++k)
+    EXPECT_TRUE(r.stages[k].hop) << k;
+  EXPECT_FALSE(r.stages.back().hop);
+  RefineSettings fixed = continued;
+  fixed.rejection = RejectionRule::max_distance(0.1 * diagonal);
+  EXPECT_THROW(refine(scans.source, scans.target, scans.T_target_source, fixed),
+               std::invalid_argument);
+}
+
 // The target on them: from the identity, every start up to 30° and 10 % of the diagonal
 // right. Without the GICP candidate, of 40 such starts (8 a cell at 0-60° and 10 %) none was, and 2
 // of 100 random ones (`align3d evaluate`).

@@ -19,9 +19,9 @@
 //                   global stage runs too, ICP refines its pose, and the better supported of the
 //                   two answers is kept: the global one only when its overlap is clearly larger
 //                   (by kClearlyBetter). When it is not (or the global stage found nothing),
-//                   ICP from initial_pose runs again with step 3 of its schedule (refine.hpp:
-//                   basin hopping, the GICP candidate), which the first run leaves out, and
-//                   its answer is kept when clearly better than the first. Two distinct poses
+//                   the first ICP continues with step 3 of its schedule (refine.hpp: basin
+//                   hopping, the GICP candidate; RefineSettings::resume), which it left out,
+//                   and its answer is kept when clearly better than the first. Two distinct poses
 //                   supported alike are ambiguous (a warning; the initial pose's answer is
 //                   kept). `path` says which answer was kept, `reason` why the global stage ran.
 // ICP direction: when the target is a point cloud, the source is the object and the target is

@@ -22,17 +22,19 @@
 //      far from the object, or laid a sliver of it on the surface), the test align() calls
 //      unconfirmed. The final stage decides rather than the coarse stages' end, whose pose is
 //      only as precise as their weighted, not one-to-one pairs: on data far finer than its
-//      spacing that end looked unconfirmed on right poses and paid for hops. The coarse stages run
-//      again
-//      from the pose moved along the direction their last system constrains least (Gelfand et al.
-//      2003: a near-symmetry, where ICP's pairs exert almost no pull) by ±kHopStep (a turn of 29°),
-//      then ±2 kHopStep (57°) and ±3 kHopStep (86°) while none is clearly better; a start is kept
-//      when it lays kClearlyBetter more of the source within max(3 s, 4 σ₀) of the target (a reach
-//      of the data's noise, whatever the candidates' RMS). From a kept pose still unconfirmed the
-//      hops go on, at most kHopChain times (a candidate is judged at its coarse end). If the pose
-//      is still unconfirmed after them, GICP's coarse stages from the start are one more candidate
-//      (the source's normals are estimated for it), kept on the same test, and the hops from it
-//      rerun GICP's stages; the final stage runs again from the candidate kept;
+//      spacing that end looked unconfirmed on right poses and paid for hops. Where the pose the
+//      coarser levels reached already fits weakly (the probe's test, RefineSettings::probe), a run
+//      that may hop skips the stages at full resolution and the final stage and hops at once.
+//      GICP's coarse stages from the start are the first candidate (the source's normals are
+//      estimated for it); a candidate is kept when it lays kClearlyBetter more of the source
+//      within max(3 s, 4 σ₀) of the target (a reach of the data's noise, whatever the candidates'
+//      RMS), and GICP's, kept and confirmed at its coarse end (at its own reach), ends step 3.
+//      Else the coarse stages run again from the pose moved along the direction their last system
+//      constrains least (Gelfand et al. 2003: a near-symmetry, where ICP's pairs exert almost no
+//      pull) by ±kHopStep (a turn of 29°), then ±2 kHopStep (57°) and ±3 kHopStep (86°) while
+//      none is kept; from a kept pose still unconfirmed the hops go on, at most kHopChain times.
+//      If the pose is still unconfirmed after them, GICP's candidate is judged against it, and
+//      the hops from it rerun GICP's stages. The final stage runs again from the candidate kept;
 //   4. the requested metric runs to convergence with τ = max(3 s, 4 σ̂), still weighted, settling
 //      only where its next update is below one standard deviation of the pose
 //      (TerminationSettings::step_sigmas); onto a
@@ -197,10 +199,10 @@ struct RefineSettings : CostSettings {
   // a far-off start cost up to 3 × 4 reruns of the coarse stages (`align3d evaluate`'s default
   // rows took 1.5-2.3× the time when its first ICP hopped). Never from a global pose.
   bool hop = true;
-  // GICP's coarse stages from the start, a candidate of step 3 of `auto` (tried after the hops)
-  // when the pose is still unconfirmed. align() leaves it out of init auto's first ICP, as the
-  // hops (with it, `align3d evaluate`'s default rows took 1.4-1.5× the time in a 30-trial scratch
-  // run), and tries it from a global pose.
+  // GICP's coarse stages from the start, a candidate of step 3 of `auto` (tried first; kept
+  // before the hops only when it is confirmed). align() leaves it out of init auto's first ICP, as
+  // the hops (with it, `align3d evaluate`'s default rows took 1.4-1.5× the time in a 30-trial
+  // scratch run), and tries it from a global pose.
   bool gicp_candidate = true;
   // The source's surface_noise (cloud_stats.hpp) when the caller has measured it (align() has);
   // < 0: `auto` measures it (the fit's σ_s, icp/fit.hpp).
@@ -220,6 +222,11 @@ struct RefineSettings : CostSettings {
   // run under init auto, which goes to the global stage next and finishes this answer only if it
   // keeps it. Clouds too small for levels are never given up on.
   bool probe = false;
+  // An earlier `auto` result for the same source, target and init under these settings but for
+  // hop, gicp_candidate and probe (not owned; the caller's promise): this run continues it with
+  // step 3 instead of repeating steps 2 and 4 (align()'s step 3 after a first run the global stage
+  // did not mend). Its stages come first in the result's.
+  const struct RefineResult* resume = nullptr;
 };
 
 // The target of any number of refinements, prepared once: a copy in spatial order (the search,
@@ -301,6 +308,15 @@ struct StageRecord {
   double resolution = 0;
 };
 
+// Where the coarse stages (step 2) ended: the pose, σ̂ (the last stage's RMS) and that stage's
+// system (zero when no stage ran); `abandoned` when a probe gave up there.
+struct CoarseEnd {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  double sigma = 0;
+  Matrix6d hessian = Matrix6d::Zero();
+  bool abandoned = false;
+};
+
 struct RefineResult {
   IcpResult icp;                         // the final stage; T_target_source is the answer
   std::vector<IterationRecord> history;  // every iteration of every stage, in order
@@ -319,6 +335,7 @@ struct RefineResult {
   // false: a probe gave up before the stages at full resolution (RefineSettings::probe); `icp` is
   // then its pose measured within the final reach (point-to-plane, no update), `fit` its fit there.
   bool finished = true;
+  CoarseEnd coarse_end;  // `auto` only (RefineSettings::resume)
   // Target normals estimated so far when the target has none: only where pairs needed them
   // (normals.hpp, NormalCache), and of those, the neighbourhoods with no plane.
   std::size_t estimated_normals = 0;
