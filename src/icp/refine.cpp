@@ -314,7 +314,7 @@ CoarseEnd hop_basins(const PointCloud& source, RefineTarget& target, const Eigen
   bool doubt = true;
   const Eigen::Vector3d centre = measure(end.T, reach_of(end)).centre;  // of the systems (icp.hpp)
   // Candidates are compared by the source points they lay within a reach of the data's noise
-  // (not `reach`, which grows with the RMS of the pose the coarse stages reached: where those
+  // (not reach_of(end), which grows with the RMS of the pose the coarse stages reached: where those
   // broke off far from the object it let almost every point count for any candidate).
   const double spacing = target.spacing();
   const double overlap_reach =
