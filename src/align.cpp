@@ -197,6 +197,7 @@ class Pipeline {
                              const RefineSettings& settings, RefineResult& r);
   void mend_unconfirmed(const Eigen::Isometry3d& init, const AlignCandidate& first);
   void finish_first();
+  void keep_as_first(const AlignCandidate& done, RefineResult r);
   GlobalResult run_global();
   AlignCandidate refine_global(RefineResult& r, bool& ambiguous);
   void warn_ambiguous_global();
@@ -340,9 +341,7 @@ void Pipeline::mend_unconfirmed(const Eigen::Isometry3d& init, const AlignCandid
       keep(third, std::move(r3));
       kept = third;
     } else if (!out_.refine.finished && !r3.hopped) {  // no hop kept: the first run, finished
-      out_.candidates.front() = third;
-      out_.candidates.pop_back();
-      keep(third, std::move(r3));
+      keep_as_first(third, std::move(r3));
       kept = third;
     }
   }
@@ -368,6 +367,12 @@ void Pipeline::finish_first() {
   finishing.probe = false;
   RefineResult r;
   const AlignCandidate done = refine_from(out_.transformation, "initial", finishing, r);
+  keep_as_first(done, std::move(r));
+}
+
+// `done`, the first run finished (the last candidate refine_from appended), kept in the first
+// run's place among the candidates.
+void Pipeline::keep_as_first(const AlignCandidate& done, RefineResult r) {
   out_.candidates.front() = done;
   out_.candidates.pop_back();
   keep(done, std::move(r));
