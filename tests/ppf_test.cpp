@@ -19,7 +19,7 @@
 #include "align3d/io/atomic_file.hpp"
 #include "align3d/se3.hpp"
 #include "align3d/synth/scenes.hpp"
-#include "detail/fast_acos.hpp"
+#include "detail/fast_angle.hpp"
 #include "detail/random.hpp"
 #include "test_util.hpp"
 

@@ -8,6 +8,7 @@
 #include <queue>
 #include <stdexcept>
 
+#include "detail/fast_angle.hpp"
 #include "detail/parallel.hpp"
 
 namespace align3d {
@@ -17,10 +18,32 @@ constexpr int kBins = 11;
 constexpr double kSeedLever = 0.05;      // seed: |n·(p − c)| >= this share of the radius
 constexpr std::size_t kPropagation = 8;  // neighbours an orientation propagates to
 
-// θ, α, φ of the pair (PCL's computePairFeatures; the header gives the formulas). Returns false for
-// coincident points. When d is parallel to the frame's normal the frame is undefined: α = θ = 0.
+int bin(double value, double lo, double hi) {
+  const int b = static_cast<int>(std::floor(kBins * (value - lo) / (hi - lo)));
+  return std::clamp(b, 0, kBins - 1);
+}
+
+// θ's bin for θ = atan2(y, x); θ = −π counts as π (antiparallel normals give ±π with the sign of
+// a round-off: one configuration, one bin). libm's atan2 decides only within 1e-7 rad of a bin's
+// edge, so the bins are its own.
+int theta_bin(double y, double x) {
+  constexpr double kPi = std::numbers::pi;
+  if (x != 0 || y != 0) {  // at the origin the signs of zero decide: libm's
+    const double t = (detail::fast_atan2(y, x) + kPi) * (kBins / (2 * kPi));
+    if (std::abs(t - std::round(t)) > 1e-7 * kBins / (2 * kPi))
+      return std::clamp(static_cast<int>(t), 0, kBins - 1);
+  }
+  double theta = std::atan2(y, x);
+  if (theta < -kPi + 1e-9) theta = kPi;
+  return bin(theta, -kPi, kPi);
+}
+
+// θ (as the y and x of its atan2), α, φ of the pair (PCL's computePairFeatures; the header gives
+// the formulas). Returns false for coincident points. When d is parallel to the frame's normal the
+// frame is undefined: α = θ = 0.
 bool pair_features(const Eigen::Vector3d& p1, const Eigen::Vector3d& n1, const Eigen::Vector3d& p2,
-                   const Eigen::Vector3d& n2, double& theta, double& alpha, double& phi) {
+                   const Eigen::Vector3d& n2, double& theta_y, double& theta_x, double& alpha,
+                   double& phi) {
   Eigen::Vector3d d = p2 - p1;
   const double length = d.norm();
   if (length == 0.0) return false;
@@ -40,21 +63,16 @@ bool pair_features(const Eigen::Vector3d& p1, const Eigen::Vector3d& n1, const E
   Eigen::Vector3d v = d.cross(*u);
   const double v_norm = v.norm();
   if (v_norm == 0.0) {
-    theta = alpha = 0.0;
+    theta_y = alpha = 0.0;
+    theta_x = 1.0;
     return true;
   }
   v /= v_norm;
   const Eigen::Vector3d w = u->cross(v);
   alpha = v.dot(*other);
-  theta = std::atan2(w.dot(*other), u->dot(*other));
-  // Antiparallel normals give θ = ±π with the sign of a round-off: one configuration, one bin.
-  if (theta < -std::numbers::pi + 1e-9) theta = std::numbers::pi;
+  theta_y = w.dot(*other);
+  theta_x = u->dot(*other);
   return true;
-}
-
-int bin(double value, double lo, double hi) {
-  const int b = static_cast<int>(std::floor(kBins * (value - lo) / (hi - lo)));
-  return std::clamp(b, 0, kBins - 1);
 }
 
 }  // namespace
@@ -86,7 +104,6 @@ std::vector<FpfhDescriptor> compute_fpfh(const PointCloud& cloud, const Neighbou
   if (neighbours.size() != cloud.size())
     throw std::invalid_argument("compute_fpfh: one neighbourhood per point needed");
   const std::size_t n = cloud.size();
-  constexpr double kPi = std::numbers::pi;
 
   // Pass 1: SPFH of every point.
   std::vector<FpfhDescriptor> spfh(n, FpfhDescriptor::Zero());
@@ -95,11 +112,11 @@ std::vector<FpfhDescriptor> compute_fpfh(const PointCloud& cloud, const Neighbou
     int pairs = 0;
     for (const Neighbor& m : neighbours[i]) {
       if (m.index == i) continue;
-      double theta, alpha, phi;
+      double theta_y, theta_x, alpha, phi;
       if (!pair_features(cloud.positions[i], cloud.normals[i], cloud.positions[m.index],
-                         cloud.normals[m.index], theta, alpha, phi))
+                         cloud.normals[m.index], theta_y, theta_x, alpha, phi))
         continue;  // a coincident point carries no direction
-      ++count[bin(theta, -kPi, kPi)];
+      ++count[theta_bin(theta_y, theta_x)];
       ++count[kBins + bin(alpha, -1, 1)];
       ++count[2 * kBins + bin(phi, -1, 1)];
       ++pairs;

@@ -24,7 +24,7 @@
 #include "align3d/se3.hpp"
 #include "align3d/voxel.hpp"
 #include "detail/bucket_scatter.hpp"
-#include "detail/fast_acos.hpp"
+#include "detail/fast_angle.hpp"
 #include "detail/parallel.hpp"
 
 namespace align3d {

@@ -13,9 +13,11 @@
 #include "align3d/coarse/ransac.hpp"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <exception>
 #include <limits>
 #include <memory>
 #include <string>
@@ -141,7 +143,9 @@ std::vector<std::uint32_t> nearest_descriptors(const std::vector<FpfhDescriptor>
   const Eigen::VectorXd norms = others.colwise().squaredNorm().transpose();
   std::vector<std::uint32_t> nearest(from.size());
   const std::size_t blocks = (from.size() + kQueries - 1) / kQueries;
-  parallel_for(blocks, threads, [&](std::size_t block) {
+  // Each block a task: parallel_for's runs of 256 items would put the 50-150 blocks of a pair of
+  // scans (0.3 ms each) on one thread.
+  parallel_tasks(blocks, threads, [&](std::size_t block) {
     const std::size_t first = block * kQueries;
     const std::size_t count = std::min(kQueries, from.size() - first);
     Eigen::MatrixXd queries(33, static_cast<Eigen::Index>(count));
@@ -466,10 +470,28 @@ GlobalResult fpfh_ransac_register(const PointCloud& source, const PointCloud& ta
   result.voxel = voxel;
   const int threads = settings.threads;
 
-  // Steps 1-3: downsample, normals, descriptors.
-  const auto src_ptr = prepare_fpfh(source, voxel, "source", threads);
-  const auto tgt_ptr = context.target_cache ? context.target_cache->fpfh(voxel, threads)
-                                            : prepare_fpfh(target, voxel, "target", threads);
+  // Steps 1-3: downsample, normals, descriptors. The clouds at the voxel hold a few thousand
+  // points (scale.cpp), whose loops keep two threads only two-thirds busy: on two threads the two
+  // sides are prepared side by side instead, each on one (the same bits either way). On the
+  // dragon's scans 24° apart, the stage's time from 60 to 53 ms.
+  // A side's error is kept and the source's rethrown first, as when they ran in turn.
+  std::shared_ptr<const FpfhCloud> src_ptr, tgt_ptr;
+  std::array<std::exception_ptr, 2> failed;
+  const bool side_by_side = thread_count(threads) == 2;
+  parallel_tasks(2, side_by_side ? 2 : 1, [&](std::size_t side) {
+    const int inner = side_by_side ? 1 : threads;
+    try {
+      if (side == 0)
+        src_ptr = prepare_fpfh(source, voxel, "source", inner);
+      else
+        tgt_ptr = context.target_cache ? context.target_cache->fpfh(voxel, inner)
+                                       : prepare_fpfh(target, voxel, "target", inner);
+    } catch (...) {
+      failed[side] = std::current_exception();
+    }
+  });
+  for (const std::exception_ptr& e : failed)
+    if (e) std::rethrow_exception(e);
   const FpfhCloud &src = *src_ptr, &tgt = *tgt_ptr;
   // Step 4: descriptor nearest neighbours.
   const FeatureMatches corr = match(src, tgt, result.object, settings.mutual_filter, threads);
